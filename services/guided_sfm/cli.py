@@ -1,0 +1,227 @@
+"""`guided-sfm`: the command line. stdout carries results only; progress and logs go to stderr."""
+
+from __future__ import annotations
+
+import PIL.Image  # noqa: F401  (before pycolmap: Pillow after it corrupts the heap on PNG save)
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from tqdm import tqdm
+
+from guided_sfm.core.errors import DomainError
+from guided_sfm.core.types import Progress
+
+
+class ProgressBar:
+    """A tqdm bar on stderr per stage, fed by progress(stage, fraction) callbacks."""
+
+    def __init__(self, enabled: bool = True) -> None:
+        self.enabled = enabled
+        self.bar: tqdm | None = None
+        self.stage = ""
+
+    def __call__(self, stage: str, fraction: float) -> None:
+        if not self.enabled:
+            return
+        if stage != self.stage:
+            self.close()
+            self.stage = stage
+            self.bar = tqdm(total=1000, desc=stage, file=sys.stderr, leave=False,
+                            bar_format="{desc:>10} {percentage:3.0f}%|{bar}| {elapsed}")
+        self.bar.n = round(1000 * min(max(fraction, 0.0), 1.0))
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def print_json(data: object) -> None:
+    print(json.dumps(data, indent=None, sort_keys=True))
+
+
+def print_table(rows: Sequence[tuple[str, object]]) -> None:
+    width = max(len(key) for key, _ in rows)
+    for key, value in rows:
+        print(f"{key:<{width}}  {value}")
+
+
+def cmd_sample(args: argparse.Namespace) -> None:
+    from guided_sfm import sample
+
+    if args.layout == "list":
+        print("\n".join(sorted(sample.LAYOUTS)))
+        return
+    with ProgressBar() as bar:
+        out = sample.write_sample(Path(args.out_dir), args.layout, args.seed, bar)
+    print(out)
+
+
+def _options(args: argparse.Namespace):
+    from guided_sfm.core.sfm import SfmOptions
+
+    extra = {"num_threads": args.threads} if getattr(args, "threads", None) else {}
+    return SfmOptions(matcher=getattr(args, "matcher", "exhaustive"),
+                      mapper=getattr(args, "mapper", "incremental"), **extra)
+
+
+def cmd_reconstruct(args: argparse.Namespace) -> None:
+    from guided_sfm.core import workspace
+
+    with ProgressBar() as bar:
+        workspace.reconstruct(Path(args.images_dir), Path(args.workspace), _options(args), bar)
+    print_table(sorted(workspace.stats(Path(args.workspace)).items()))
+
+
+def cmd_scene(args: argparse.Namespace) -> None:
+    from guided_sfm.core import workspace
+
+    scene = workspace.load_scene(Path(args.workspace))
+    if args.png:
+        from guided_sfm import plot
+
+        plot.plot_scene(scene, Path(args.png))
+    if args.json or not args.png:
+        print_json(scene.to_dict())
+
+
+def _read_json(path: str) -> object:
+    try:
+        return json.loads(Path(path).read_text())
+    except FileNotFoundError as exc:
+        raise DomainError(f"no such file: {path}") from exc
+    except ValueError as exc:
+        raise DomainError(f"{path} is not valid JSON: {exc}") from exc
+
+
+def cmd_prune(args: argparse.Namespace) -> None:
+    from guided_sfm.core import colmap_db, workspace
+    from guided_sfm.core.edits import parse_edits
+
+    base = Path(args.workspace)
+    ids = workspace.image_ids(base)
+    edits = parse_edits(_read_json(args.edits), ids)
+    if args.dry_run:
+        outcome = workspace.preview(base, edits)
+    else:
+        outcome = workspace.prune(base, edits, Path(args.new_workspace))
+    record = workspace.pruning_record(outcome, colmap_db.image_names(workspace.require(base)))
+    if args.json:
+        print_json(record)
+    else:
+        print_table([("deleted pairs", len(record["deleted_pairs"])),
+                     ("components before", record["components_before"]),
+                     ("components after", record["components_after"]),
+                     ("removed by test", record["removed_by_test"])])
+
+
+def cmd_map(args: argparse.Namespace) -> None:
+    from guided_sfm.core import workspace
+
+    with ProgressBar() as bar:
+        workspace.map_again(Path(args.workspace), options=_options(args), progress=bar)
+    print_table(sorted(workspace.stats(Path(args.workspace)).items()))
+
+
+def cmd_evaluate(args: argparse.Namespace) -> None:
+    from guided_sfm.core import evaluation
+
+    reference = Path(args.reference_from) if args.reference_from else None
+    report = evaluation.evaluate_workspace(Path(args.workspace), Path(args.truth), reference)
+    if args.json:
+        print_json(report)
+    else:
+        print_table([(k, v) for k, v in report.items() if not isinstance(v, list | dict)])
+
+
+def cmd_demo(args: argparse.Namespace) -> None:
+    from guided_sfm import demo
+
+    with ProgressBar() as bar:
+        result = demo.run_demo(layout=args.layout, seed=args.seed, rounds=args.rounds,
+                               rule=args.rule, out_dir=Path(args.out) if args.out else None,
+                               progress=bar)
+    if args.json:
+        print_json(result)
+    else:
+        demo.print_report(result)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="guided-sfm", description=__doc__)
+    parser.add_argument("-v", "--verbose", action="store_true", help="show COLMAP's own log")
+    sub = parser.add_subparsers(dest="command", required=True)
+    _add(sub, "sample", cmd_sample, "render a sample scene with ground truth",
+         [("out_dir",), ("--layout", {"default": None}), ("--seed", {"type": int, "default": 0})])
+    sfm_args = [("--matcher", {"choices": ["exhaustive", "sequential"], "default": "exhaustive"}),
+                ("--mapper", {"choices": ["incremental", "global"], "default": "incremental"}),
+                ("--threads", {"type": int, "default": None})]
+    _add(sub, "reconstruct", cmd_reconstruct, "images -> COLMAP workspace",
+         [("images_dir",), ("workspace",), *sfm_args])
+    _add(sub, "scene", cmd_scene, "the top-down scene of a workspace",
+         [("workspace",), ("--json", {"action": "store_true"}), ("--png", {"default": None})])
+    _add(sub, "prune", cmd_prune, "delete the pairs an edit set rules out into a new workspace",
+         [("workspace",), ("edits",), ("new_workspace",),
+          ("--dry-run", {"action": "store_true"}), ("--json", {"action": "store_true"})])
+    _add(sub, "map", cmd_map, "map a workspace's database again",
+         [("workspace",), ("--cold", {"action": "store_true"}), *sfm_args[1:]])
+    _add(sub, "evaluate", cmd_evaluate, "the paper's metrics against ground truth",
+         [("workspace",), ("--truth", {"required": True}), ("--reference-from", {"default": None}),
+          ("--json", {"action": "store_true"})])
+    _add(sub, "demo", cmd_demo, "the paper's loop headless on a freshly rendered sample",
+         [("--layout", {"default": None}), ("--seed", {"type": int, "default": 0}),
+          ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": "paper",
+                                                               "choices": ["paper", "default"]}),
+          ("--out", {"default": None}), ("--json", {"action": "store_true"})])
+    _register_service(sub)
+    return parser
+
+
+def _add(sub, name: str, func: Callable, help_: str, arguments: list[tuple]) -> None:
+    command = sub.add_parser(name, help=help_, description=help_)
+    for spec in arguments:
+        command.add_argument(spec[0], **(spec[1] if len(spec) > 1 else {}))
+    command.set_defaults(func=func)
+
+
+def _register_service(sub) -> None:
+    try:
+        from guided_sfm import service_cli
+    except ImportError:  # the service layer is optional for the engine's commands
+        return
+    service_cli.register(sub)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
+    from guided_sfm.core import sfm
+
+    sfm.set_colmap_verbosity(args.verbose)
+    if getattr(args, "layout", "") is None:
+        from guided_sfm.sample import DEFAULT_LAYOUT
+
+        args.layout = DEFAULT_LAYOUT
+    try:
+        args.func(args)
+    except DomainError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

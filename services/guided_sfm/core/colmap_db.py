@@ -1,0 +1,133 @@
+"""The COLMAP matching database: verified pairs, their matches, and pruned copies for new versions."""
+
+from __future__ import annotations
+
+import sqlite3
+from collections.abc import Iterable
+from contextlib import closing, contextmanager
+from pathlib import Path
+
+import numpy as np
+import pycolmap
+
+from guided_sfm.core.errors import MissingWorkspace
+from guided_sfm.core.geometry import horizontal_fov_deg
+from guided_sfm.core.types import PairKey, pair_key
+
+# Mapping reads keypoints, matches and two-view geometries, never descriptors, so a pruned
+# version's database leaves them out: it costs kilobytes per image instead of megabytes.
+SKIPPED_TABLES = ("descriptors",)
+
+
+@contextmanager
+def read_only(path: Path):
+    """A read-only sqlite connection to an existing database: reading never changes a version."""
+    if not Path(path).is_file():
+        raise MissingWorkspace(f"no COLMAP database at {path}")
+    conn = sqlite3.connect(f"file:{Path(path).resolve()}?mode=ro", uri=True)
+    try:
+        yield conn
+    finally:
+        conn.close()
+
+
+def _blob(data: bytes, rows: int, cols: int, dtype) -> np.ndarray:
+    return np.frombuffer(data or b"", dtype=dtype).reshape(rows, cols)
+
+
+def image_names(path: Path) -> dict[int, str]:
+    """COLMAP image id -> file name of every image in the database."""
+    with read_only(path) as conn:
+        return dict(conn.execute("SELECT image_id, name FROM images"))
+
+
+def verified_pairs(path: Path) -> dict[PairKey, int]:
+    """Every verified image pair with at least one inlier match -> its number of inliers."""
+    with read_only(path) as conn:
+        rows = conn.execute("SELECT pair_id, rows FROM two_view_geometries WHERE rows > 0")
+        return {pair_key(*pycolmap.pair_id_to_image_pair(pid)): int(n) for pid, n in rows}
+
+
+def inlier_matches(path: Path, pair: PairKey) -> np.ndarray:
+    """(N, 2) keypoint indices of a pair's verified inlier matches, columns in pair order."""
+    pair_id = pycolmap.image_pair_to_pair_id(*pair)
+    with read_only(path) as conn:
+        row = conn.execute("SELECT rows, cols, data FROM two_view_geometries WHERE pair_id = ?",
+                           (pair_id,)).fetchone()
+    if row is None or not row[0]:
+        return np.zeros((0, 2), dtype=np.int64)
+    return _blob(row[2], row[0], row[1], np.uint32).astype(np.int64)
+
+
+def all_inlier_matches(path: Path) -> dict[PairKey, np.ndarray]:
+    """Every verified pair's inlier matches, columns ordered as the pair key, in one read."""
+    # COLMAP stores a pair under its smaller image id first, which is the pair key's order.
+    with read_only(path) as conn:
+        rows = conn.execute(
+            "SELECT pair_id, rows, cols, data FROM two_view_geometries WHERE rows > 0")
+        return {pair_key(*pycolmap.pair_id_to_image_pair(pid)):
+                _blob(data, n, cols, np.uint32).astype(np.int64) for pid, n, cols, data in rows}
+
+
+def keypoints(path: Path, image_id: int) -> np.ndarray:
+    """(N, 2) keypoint positions of an image in pixels (COLMAP origin: pixel corner)."""
+    with read_only(path) as conn:
+        row = conn.execute("SELECT rows, cols, data FROM keypoints WHERE image_id = ?",
+                           (image_id,)).fetchone()
+    if row is None or not row[0]:
+        return np.zeros((0, 2))
+    return _blob(row[2], row[0], row[1], np.float32)[:, :2].astype(float)
+
+
+def copy_without_pairs(source: Path, target: Path, removed: Iterable[PairKey]) -> int:
+    """Write a new database at target: source minus the removed pairs (and descriptors).
+
+    The source is opened read-only and left untouched. Returns how many pairs were removed.
+    """
+    if not Path(source).is_file():
+        raise MissingWorkspace(f"no COLMAP database at {source}")
+    target = Path(target)
+    target.unlink(missing_ok=True)
+    pair_ids = [(pycolmap.image_pair_to_pair_id(*pair),) for pair in removed]
+    with closing(sqlite3.connect(f"file:{target}", uri=True)) as conn:
+        conn.execute("ATTACH DATABASE ? AS src", (f"file:{source}?mode=ro",))
+        _copy_tables(conn)
+        conn.execute("CREATE TEMP TABLE removed (pair_id INTEGER PRIMARY KEY)")
+        conn.executemany("INSERT OR IGNORE INTO removed VALUES (?)", pair_ids)
+        deleted = conn.execute(
+            "DELETE FROM main.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM removed)"
+        ).rowcount
+        conn.execute("DELETE FROM main.matches WHERE pair_id IN (SELECT pair_id FROM removed)")
+        conn.commit()
+        conn.execute("DETACH DATABASE src")
+    return deleted
+
+
+def _copy_tables(conn: sqlite3.Connection) -> None:
+    """Recreate the source schema in main and copy every table's rows but the skipped ones."""
+    schema = conn.execute(
+        "SELECT type, name, sql FROM src.sqlite_master WHERE sql IS NOT NULL "
+        "AND name NOT LIKE 'sqlite_%' ORDER BY type = 'table' DESC"
+    ).fetchall()
+    for kind, name, sql in schema:
+        conn.execute(sql)
+        if kind == "table" and name not in SKIPPED_TABLES:
+            conn.execute(f'INSERT INTO main."{name}" SELECT * FROM src."{name}"')
+    conn.commit()
+
+
+def fov_by_image(path: Path) -> dict[int, float]:
+    """Horizontal field of view (deg) of every image from its camera's focal length."""
+    # Every COLMAP camera model stores its (x) focal length first.
+    with read_only(path) as conn:
+        cameras = {cid: (width, np.frombuffer(params, dtype=np.float64)[0])
+                   for cid, width, params in conn.execute(
+                       "SELECT camera_id, width, params FROM cameras")}
+        images = conn.execute("SELECT image_id, camera_id FROM images").fetchall()
+    return {iid: horizontal_fov_deg(cameras[cid][1], cameras[cid][0]) for iid, cid in images}
+
+
+def finalize(path: Path) -> None:
+    """Fold COLMAP's write-ahead log into the file, so the database is one self-contained file."""
+    with closing(sqlite3.connect(path)) as conn:
+        conn.execute("PRAGMA journal_mode=DELETE")

@@ -1,0 +1,87 @@
+"""Sparse models: load them largest first, camera poses, and alignment between versions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pycolmap
+
+from guided_sfm.core import geometry, metrics
+
+# Alignment between versions is robust to the cameras a round moved: inliers must agree
+# within this share of the scene extent.
+ALIGN_THRESHOLD_SHARE = 0.02
+
+
+def load_models(sparse_dir: Path) -> list[pycolmap.Reconstruction]:
+    """Every model under sparse_dir (0/, 1/, ...), largest (most registered images) first."""
+    dirs = sorted((d for d in Path(sparse_dir).iterdir() if d.name.isdigit()), key=lambda d: int(d.name))
+    models = [pycolmap.Reconstruction(d) for d in dirs]
+    return sorted(models, key=lambda rec: -rec.num_reg_images())
+
+
+def camera_poses(model: pycolmap.Reconstruction) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Image name -> (cam_from_world rotation 3x3, camera centre) of every registered image."""
+    poses = {}
+    for image_id in model.reg_image_ids():
+        image = model.image(image_id)
+        cam_from_world = image.cam_from_world()
+        poses[image.name] = (cam_from_world.rotation.matrix(), np.asarray(image.projection_center()))
+    return poses
+
+
+def _extent(centers: np.ndarray) -> float:
+    if len(centers) < 2:
+        return 1.0
+    return float(np.linalg.norm(centers.max(axis=0) - centers.min(axis=0))) or 1.0
+
+
+def similarity_between(source: pycolmap.Reconstruction, target: pycolmap.Reconstruction,
+                       exclude_names: set[str] = frozenset()) -> metrics.Similarity | None:
+    """Robust similarity taking source's camera centres onto target's (common, kept cameras)."""
+    src_poses, dst_poses = camera_poses(source), camera_poses(target)
+    common = sorted((set(src_poses) & set(dst_poses)) - set(exclude_names))
+    if len(common) < 3:
+        return None
+    src = np.array([src_poses[n][1] for n in common])
+    dst = np.array([dst_poses[n][1] for n in common])
+    return metrics.align_similarity(src, dst, threshold=ALIGN_THRESHOLD_SHARE * _extent(dst))
+
+
+def to_sim3d(sim: metrics.Similarity) -> pycolmap.Sim3d:
+    return pycolmap.Sim3d(float(sim.scale), pycolmap.Rotation3d(np.asarray(sim.rotation)),
+                          np.asarray(sim.translation, dtype=float).reshape(3, 1))
+
+
+def align_models(models: list[pycolmap.Reconstruction], reference: pycolmap.Reconstruction,
+                 exclude: frozenset[int] = frozenset()) -> bool:
+    """Move every model onto the reference by the largest model's similarity; False if impossible."""
+    excluded = {models[0].image(i).name for i in exclude if models[0].exists_image(i)}
+    sim = similarity_between(models[0], reference, excluded)
+    if sim is None:
+        return False
+    for model in models:
+        model.transform(to_sim3d(sim))
+    return True
+
+
+def compare_models(before: pycolmap.Reconstruction, after: pycolmap.Reconstruction) -> list[dict]:
+    """Per registered camera of `after`: distance moved and angle turned since `before`."""
+    sim = similarity_between(after, before)
+    poses_before, poses_after = camera_poses(before), camera_poses(after)
+    out = []
+    for image_id in sorted(after.reg_image_ids()):
+        name = after.image(image_id).name
+        if name not in poses_before or sim is None:
+            out.append({"image_id": image_id, "moved": None, "rotated_deg": None})
+            continue
+        rotation, center = poses_after[name]
+        center = sim.apply(center[None])[0]
+        rotation = rotation @ np.asarray(sim.rotation).T
+        out.append({
+            "image_id": image_id,
+            "moved": float(np.linalg.norm(center - poses_before[name][1])),
+            "rotated_deg": geometry.rotation_angle_deg(poses_before[name][0], rotation),
+        })
+    return out

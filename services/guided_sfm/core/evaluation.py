@@ -1,0 +1,107 @@
+"""The paper's evaluation (design.md, "Evaluation") of a workspace against a sample's truth."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from guided_sfm.core import colmap_db, colmap_model, metrics, workspace
+from guided_sfm.core.errors import EmptyModel
+from guided_sfm.core.geometry import rotation_angle_deg
+from guided_sfm.core.truth import Truth, false_pairs, load_truth
+from guided_sfm.core.types import pair_key
+
+INLIER_M = 0.15  # alignment inlier threshold on camera centres
+WRONG_M = 0.3  # a camera is wrong when its centre is off by more than this
+WRONG_DEG = 10.0  # or its rotation by more than this
+
+
+@dataclass(frozen=True)
+class CameraStatus:
+    """Per registered camera of the largest model: its error after alignment to the truth."""
+
+    errors: dict[str, tuple[float, float]]  # name -> (centre error m, rotation error deg)
+    unregistered: list[str]
+    num_models: int
+    truth_from_model: metrics.Similarity
+
+    @property
+    def wrong(self) -> list[str]:
+        return sorted(n for n, (m, deg) in self.errors.items() if m > WRONG_M or deg > WRONG_DEG)
+
+    @property
+    def right(self) -> list[str]:
+        return sorted(set(self.errors) - set(self.wrong))
+
+
+def camera_status(ws: Path, truth: Truth, reference: list[str] | None = None) -> CameraStatus:
+    """Align the largest model to the truth on the reference cameras and measure every camera."""
+    models = workspace.load_models(ws)
+    if not models:
+        raise EmptyModel(f"{ws} has no sparse model to evaluate")
+    poses = {n: p for n, p in colmap_model.camera_poses(models[0]).items() if n in truth.cameras}
+    names = sorted(poses) if reference is None else sorted(set(reference) & set(poses))
+    if len(names) < 3:
+        raise EmptyModel(f"{ws}: fewer than 3 reference cameras to align with the truth")
+    sim = metrics.align_similarity(np.array([poses[n][1] for n in names]),
+                                   np.array([truth.cameras[n].center for n in names]),
+                                   threshold=INLIER_M)
+    errors = {}
+    for name, (rotation, center) in poses.items():
+        true = truth.cameras[name]
+        aligned_rotation = rotation @ np.asarray(sim.rotation).T
+        errors[name] = (float(np.linalg.norm(sim.apply(center[None])[0] - true.center)),
+                        rotation_angle_deg(true.rotation, aligned_rotation))
+    all_names = set(colmap_db.image_names(workspace.require(ws)).values())
+    return CameraStatus(errors, sorted(all_names - set(poses)), len(models), sim)
+
+
+def _target_errors(status: CameraStatus, targets: list[str]) -> dict[str, float | None]:
+    found = [status.errors[n] for n in targets if n in status.errors]
+    if not found:
+        return {"translation_mse": None, "rotation_mae_deg": None}
+    metres, degrees = np.array(found).T
+    return {"translation_mse": float(np.mean(metres**2)), "rotation_mae_deg": float(np.mean(degrees))}
+
+
+def pruning_report(ws: Path, parent: Path, truth: Truth) -> dict | None:
+    """Precision/recall/F1 of the pairs a prune deleted against the parent's false pairs."""
+    record_file = Path(ws) / workspace.PRUNING
+    if not record_file.is_file() or truth.depth_dir is None:
+        return None
+    ids = workspace.image_ids(parent)
+    deleted = {pair_key(ids[a], ids[b]) for a, b in json.loads(record_file.read_text())["deleted_pairs"]}
+    false = false_pairs(workspace.require(parent), truth)
+    precision, recall, f1 = metrics.pruning_scores(deleted, false)
+    return {"deleted": len(deleted), "false_pairs": len(false), "true_deleted": len(deleted & false),
+            "precision": precision, "recall": recall, "f1": f1}
+
+
+def evaluate_workspace(ws: Path, truth_file: Path, reference_from: Path | None = None) -> dict:
+    """The design's figures for a workspace; with reference_from, relative to that workspace."""
+    truth = load_truth(truth_file)
+    before = camera_status(reference_from, truth) if reference_from else None
+    status = camera_status(ws, truth, before.right if before else None)
+    report: dict = {
+        "num_images": len(status.errors) + len(status.unregistered),
+        "num_registered": len(status.errors),
+        "num_models": status.num_models,
+        "num_wrong": len(status.wrong),
+        "num_unregistered": len(status.unregistered),
+        "wrong": status.wrong,
+        "unregistered": status.unregistered,
+    }
+    targets = before.wrong if before else sorted(status.errors)
+    report.update(_target_errors(status, targets))
+    if before:
+        fixed = sorted(set(before.wrong) & set(status.right))
+        report.update({"num_targets": len(targets), "num_fixed": len(fixed), "fixed": fixed,
+                       "still_wrong": sorted(set(before.wrong) - set(fixed)),
+                       "newly_wrong": sorted(set(before.right) & set(status.wrong))})
+    parent = Path(reference_from or workspace.read_meta(ws).get("parent", ""))
+    if parent != Path("") and (parent / workspace.DATABASE).is_file():
+        report["pruning"] = pruning_report(ws, parent, truth)
+    return report

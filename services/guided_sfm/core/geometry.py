@@ -1,0 +1,85 @@
+"""Rotation and camera helpers in COLMAP's convention: x_cam = cam_from_world_rotation @ x_world + t.
+
+Camera axes: x right, y down, z forward. Quaternions here are (w, x, y, z); pycolmap's
+`Rotation3d.quat` is (x, y, z, w), use `qvec_from_pycolmap` to convert.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from guided_sfm.core.types import GroundFrame
+
+
+def rotation_from_qvec(qvec) -> np.ndarray:
+    """3x3 rotation matrix of a quaternion (w, x, y, z); the quaternion need not be unit length."""
+    w, x, y, z = np.asarray(qvec, dtype=float) / np.linalg.norm(qvec)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def qvec_from_rotation(rotation: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) with w >= 0 of a 3x3 rotation matrix."""
+    m = np.asarray(rotation, dtype=float)
+    # The eigenvector of this symmetric matrix for its largest eigenvalue is the quaternion
+    # (Bar-Itzhack); stable for every rotation, unlike the trace formula near 180 deg.
+    k = np.array([
+        [m[0, 0] - m[1, 1] - m[2, 2], m[1, 0] + m[0, 1], m[2, 0] + m[0, 2], m[2, 1] - m[1, 2]],
+        [m[1, 0] + m[0, 1], m[1, 1] - m[0, 0] - m[2, 2], m[2, 1] + m[1, 2], m[0, 2] - m[2, 0]],
+        [m[2, 0] + m[0, 2], m[2, 1] + m[1, 2], m[2, 2] - m[0, 0] - m[1, 1], m[1, 0] - m[0, 1]],
+        [m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], m[0, 0] + m[1, 1] + m[2, 2]],
+    ]) / 3.0
+    _, vectors = np.linalg.eigh(k)
+    x, y, z, w = vectors[:, -1]
+    q = np.array([w, x, y, z])
+    return q if q[0] >= 0 else -q
+
+
+def qvec_from_pycolmap(xyzw) -> np.ndarray:
+    """Reorder pycolmap's (x, y, z, w) quaternion to (w, x, y, z), w >= 0."""
+    x, y, z, w = np.asarray(xyzw, dtype=float)
+    q = np.array([w, x, y, z]) / np.linalg.norm([w, x, y, z])
+    return q if q[0] >= 0 else -q
+
+
+def camera_center(cam_from_world_rotation: np.ndarray, cam_from_world_translation) -> np.ndarray:
+    """Camera centre in world coordinates: -R^T t."""
+    return -np.asarray(cam_from_world_rotation).T @ np.asarray(cam_from_world_translation, float)
+
+
+def viewing_direction(cam_from_world_rotation: np.ndarray) -> np.ndarray:
+    """The camera's +z (optical axis) as a world direction: row 2 of cam_from_world."""
+    return np.asarray(cam_from_world_rotation, dtype=float)[..., 2, :]
+
+
+def camera_up(cam_from_world_rotation: np.ndarray) -> np.ndarray:
+    """The camera's up (-y, since image y points down) as a world direction."""
+    return -np.asarray(cam_from_world_rotation, dtype=float)[..., 1, :]
+
+
+def wrap_deg(angle_deg):
+    """Wrap angles in degrees to (-180, 180]."""
+    angle = np.asarray(angle_deg, dtype=float)
+    wrapped = angle - 360.0 * np.ceil((angle - 180.0) / 360.0)
+    return float(wrapped) if wrapped.ndim == 0 else wrapped
+
+
+def yaw_in_frame(direction: np.ndarray, frame: GroundFrame):
+    """Yaw of world direction(s) in the frame, deg CCW from +x seen from above, in (-180, 180]."""
+    d = np.asarray(direction, dtype=float)
+    return wrap_deg(np.degrees(np.arctan2(d @ frame.y_axis, d @ frame.x_axis)))
+
+
+def rotation_angle_deg(rotation_a: np.ndarray, rotation_b: np.ndarray) -> float:
+    """Angle in degrees of the rotation taking a to b (angle of a^T b)."""
+    relative = np.asarray(rotation_a, float).T @ np.asarray(rotation_b, float)
+    cos = np.clip((np.trace(relative) - 1.0) / 2.0, -1.0, 1.0)
+    return float(np.degrees(np.arccos(cos)))
+
+
+def horizontal_fov_deg(focal_px: float, width_px: float) -> float:
+    """Horizontal field of view in degrees of a pinhole camera: 2 atan(width / (2 f))."""
+    return float(np.degrees(2.0 * np.arctan(width_px / (2.0 * focal_px))))

@@ -1,0 +1,137 @@
+"""Algorithm 1 (design.md): pairs to delete for an edit set, with the tests that removed them."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from itertools import chain
+
+import numpy as np
+import shapely
+
+from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
+from guided_sfm.core.frustum import frustum_polygons
+from guided_sfm.core.types import CameraEdit, EditSet, PairKey, PruneResult, TopDownScene, pair_key
+
+FRUSTUM = "frustum"
+MANUAL = "manual"
+
+PlacedPose = tuple[float, float, float, float | None, float]  # x, y, yaw_deg, fov_deg, range
+
+
+def _check_edits(scene: TopDownScene, edits: EditSet) -> dict[int, CameraEdit]:
+    """Moved cameras by image id; raises on unknown or repeated images."""
+    known = {c.image_id for c in scene.cameras}
+    moved: dict[int, CameraEdit] = {}
+    for edit in edits.cameras:
+        if edit.image_id not in known:
+            raise UnknownImage(f"the edit moves image {edit.image_id}, which the scene lacks")
+        if edit.image_id in moved:
+            raise InvalidInput(f"the edit moves image {edit.image_id} more than once")
+        moved[edit.image_id] = edit
+    return moved
+
+
+def _manual_pairs(scene: TopDownScene, edits: EditSet,
+                  pairs: Mapping[PairKey, int]) -> list[PairKey]:
+    """The manual deletions as canonical keys; each must be a verified pair of known images."""
+    known = {c.image_id for c in scene.cameras}
+    keys = []
+    for a, b in edits.delete_pairs:
+        for image_id in (a, b):
+            if image_id not in known:
+                raise UnknownImage(f"manual deletion ({a}, {b}) names image {image_id}, "
+                                   "which the scene lacks")
+        key = pair_key(a, b)
+        if key not in pairs:
+            raise InvalidInput(f"manual deletion ({a}, {b}) is not a verified pair")
+        keys.append(key)
+    return keys
+
+
+def placed_poses(scene: TopDownScene, moved: Mapping[int, CameraEdit]) -> dict[int, PlacedPose]:
+    """2D pose (frame units, deg) of every placed camera: the edit if moved, else the model's."""
+    poses: dict[int, PlacedPose] = {}
+    for camera in scene.cameras:
+        edit = moved.get(camera.image_id)
+        if edit is not None:
+            fov = camera.fov_deg if edit.fov_deg is None else edit.fov_deg
+            range_ = camera.range if edit.range is None else edit.range
+            poses[camera.image_id] = (edit.x, edit.y, edit.yaw_deg, fov, range_)
+        elif camera.registered and camera.x is not None:
+            poses[camera.image_id] = (camera.x, camera.y, camera.yaw_deg, camera.fov_deg,
+                                      camera.range)
+    return poses
+
+
+def _tested_pairs(pairs: Mapping[PairKey, int], moved: Mapping[int, CameraEdit],
+                  poses: Mapping[int, PlacedPose]) -> np.ndarray:
+    """(P, 2) pairs, sorted, with at least one moved member and both members placed."""
+    flat = np.fromiter(chain.from_iterable(pairs), dtype=np.int64, count=2 * len(pairs))
+    keys = np.sort(flat.reshape(-1, 2), axis=1)
+    moved_ids = np.fromiter(moved, dtype=np.int64, count=len(moved))
+    placed_ids = np.fromiter(poses, dtype=np.int64, count=len(poses))
+    touched = np.isin(keys, moved_ids).any(axis=1)
+    placed = np.isin(keys, placed_ids).all(axis=1)
+    tested = keys[touched & placed]
+    return tested[np.lexsort((tested[:, 1], tested[:, 0]))]
+
+
+def _triangles(ids: np.ndarray, poses: Mapping[int, PlacedPose]) -> np.ndarray:
+    """One frustum polygon per id, built once."""
+    values = np.array([poses[int(i)] for i in ids], dtype=object).reshape(-1, 5)
+    missing_fov = [int(i) for i, fov in zip(ids, values[:, 3], strict=True) if fov is None]
+    if missing_fov:
+        raise InvalidFrustum(f"camera {missing_fov[0]} has no field of view; give fov_deg")
+    x, y, yaw, fov, range_ = (values[:, k].astype(float) for k in range(5))
+    return frustum_polygons(x, y, yaw, fov, range_, ids=[int(i) for i in ids])
+
+
+def frustum_test(tested: np.ndarray, poses: Mapping[int, PlacedPose]) -> np.ndarray:
+    """Mask over (P, 2) pairs whose frustum triangles do not intersect (2D frame)."""
+    if len(tested) == 0:
+        return np.zeros(0, dtype=bool)
+    ids, index = np.unique(tested, return_inverse=True)
+    triangles = _triangles(ids, poses)
+    shapely.prepare(triangles)  # each triangle meets many partners; GEOS reuses its index
+    a, b = index.reshape(-1, 2).T
+    bounds = shapely.bounds(triangles)
+    # Disjoint boxes cannot intersect; numpy rejects them cheaper than a GEOS call each.
+    near = np.all((bounds[a, :2] <= bounds[b, 2:]) & (bounds[b, :2] <= bounds[a, 2:]), axis=1)
+    apart = ~near
+    apart[near] = ~shapely.intersects(triangles[a[near]], triangles[b[near]])
+    return apart
+
+
+def _paper_rule(tested: np.ndarray, poses: Mapping[int, PlacedPose]) -> dict[str, np.ndarray]:
+    return {FRUSTUM: frustum_test(tested, poses)}
+
+
+# The default rule runs the paper's test until its own match-based tests exist.
+RULES: dict[str, Callable[[np.ndarray, Mapping[int, PlacedPose]], dict[str, np.ndarray]]] = {
+    "paper": _paper_rule,
+    "default": _paper_rule,
+}
+
+
+def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int]) -> PruneResult:
+    """Pairs (COLMAP image ids) the edit set's rule deletes, each with the tests that removed it."""
+    rule = RULES.get(edits.rule)
+    if rule is None:
+        raise InvalidInput(f"unknown rule {edits.rule!r}; expected one of {sorted(RULES)}")
+    moved = _check_edits(scene, edits)
+    manual = _manual_pairs(scene, edits, pairs)
+    poses = placed_poses(scene, moved)
+    tested = _tested_pairs(pairs, moved, poses)
+    reasons: dict[PairKey, tuple[str, ...]] = {}
+    for test, removed in rule(tested, poses).items():
+        _add_reason(reasons, zip(*tested[removed].T.tolist(), strict=True), test)
+    _add_reason(reasons, dict.fromkeys(manual), MANUAL)
+    return PruneResult(deleted=sorted(reasons), reasons=reasons)
+
+
+def _add_reason(reasons: dict[PairKey, tuple[str, ...]], keys, test: str) -> None:
+    if not reasons:
+        reasons.update(dict.fromkeys(keys, (test,)))
+        return
+    for key in keys:
+        reasons[key] = reasons.get(key, ()) + (test,)

@@ -1,0 +1,22 @@
+"""Rendered sample scenes with repeated identical objects and ground truth (pure numpy + Pillow)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from guided_sfm.core.types import Progress, no_progress
+from guided_sfm.sample import writer
+from guided_sfm.sample.layouts import LAYOUT_BUILDERS
+
+LAYOUTS = dict(LAYOUT_BUILDERS)
+DEFAULT_LAYOUT = "murals"
+
+
+def write_sample(
+    out_dir: Path, layout: str = DEFAULT_LAYOUT, seed: int = 0, progress: Progress = no_progress
+) -> Path:
+    """Render a layout's images, depth maps and truth.json into out_dir; returns out_dir."""
+    return writer.write_sample(out_dir, layout, seed, progress)
+
+
+__all__ = ["DEFAULT_LAYOUT", "LAYOUTS", "write_sample"]

@@ -1,0 +1,66 @@
+"""The command line as scripts use it: exit codes, one-line errors, JSON on stdout, no writes."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+
+def run(*args, check=False):
+    done = subprocess.run([sys.executable, "-m", "guided_sfm.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=300)
+    if check:
+        assert done.returncode == 0, done.stderr
+    return done
+
+
+def test_sample_lists_layouts():
+    names = run("sample", "x", "--layout", "list", check=True).stdout.split()
+    assert {"murals", "tiny"} <= set(names)
+
+
+@pytest.mark.parametrize(
+    ("edits", "message"),
+    [
+        ("{not json", "not valid JSON"),
+        ('{"cameras": [{"name": "nope.jpg", "x": 0, "y": 0, "yaw_deg": 0}]}', "unknown image"),
+        ('{"cameras": [{"image_id": 1, "x": 0, "y": 0, "yaw_deg": 0, "fov_deg": 180}]}', "fov"),
+        ('{"cameras": [{"image_id": 1, "x": "a", "y": 0, "yaw_deg": 0}]}', "finite number"),
+    ],
+)
+def test_prune_rejects_bad_edits_and_writes_nothing(tiny_workspace, tmp_path, edits, message):
+    edits_file = tmp_path / "edits.json"
+    edits_file.write_text(edits)
+    done = run("prune", tiny_workspace, edits_file, tmp_path / "new")
+    assert done.returncode == 1
+    assert done.stderr.strip().count("\n") == 0 and message in done.stderr
+    assert not (tmp_path / "new").exists()
+
+
+def test_missing_workspace_is_one_line(tmp_path):
+    done = run("scene", tmp_path / "missing", "--json")
+    assert done.returncode == 1 and "not a workspace" in done.stderr
+    assert done.stderr.strip().count("\n") == 0
+
+
+def test_prune_dry_run_json_names_pairs_and_writes_nothing(tiny_workspace, tmp_path):
+    scene = json.loads(run("scene", tiny_workspace, "--json", check=True).stdout)
+    camera = [c for c in scene["cameras"] if c["registered"]][0]
+    edits = {"cameras": [{"name": camera["name"], "x": 1e4, "y": 1e4, "yaw_deg": 0}],
+             "rule": "paper"}
+    (tmp_path / "e.json").write_text(json.dumps(edits))
+    done = run("prune", tiny_workspace, tmp_path / "e.json", tmp_path / "new", "--dry-run",
+               "--json", check=True)
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["deleted_pairs"] and all(camera["name"] in p for p in result["deleted_pairs"])
+    assert all(p == sorted(p) for p in result["deleted_pairs"])
+    assert result["deleted_pairs"] == sorted(result["deleted_pairs"])
+    assert result["components_after"] >= 1 and "removed_by_test" in result
+    assert not (tmp_path / "new").exists()
+
+
+def test_scene_png_after_pycolmap_import_does_not_crash(tiny_workspace, tmp_path):
+    """Regression guard: Pillow saving a PNG after pycolmap was imported aborted the process."""
+    run("scene", tiny_workspace, "--png", tmp_path / "scene.png", check=True)
+    assert (tmp_path / "scene.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

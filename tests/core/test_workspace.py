@@ -1,0 +1,81 @@
+"""End to end on the tiny rendered scene: reconstruct, scene, prune into a new workspace, map."""
+
+import json
+
+import pytest
+
+from guided_sfm.core import workspace
+from guided_sfm.core.errors import MissingWorkspace, UnknownImage
+from guided_sfm.core.types import CameraEdit, EditSet
+
+from .conftest import TINY_OPTIONS
+
+
+def test_reconstruct_registers_the_tiny_scene(tiny_workspace_ro, tiny_sample):
+    stats = workspace.stats(tiny_workspace_ro)
+    images = len(list((tiny_sample / "images").iterdir()))
+    assert stats["num_images"] == images
+    assert stats["num_registered"] >= images - 1
+    assert stats["num_points"] > 200
+    assert (tiny_workspace_ro / "sparse" / "0" / "images.bin").is_file()
+
+
+def test_scene_lists_every_image_in_capture_order(tiny_workspace_ro):
+    scene = workspace.load_scene(tiny_workspace_ro)
+    names = [c.name for c in scene.cameras]
+    assert names == sorted(names)
+    assert [c.seq for c in scene.cameras] == list(range(len(names)))
+    placed = [c for c in scene.cameras if c.registered]
+    assert all(c.x is not None and 0 < c.fov_deg < 180 and c.range > 0 for c in placed)
+    stored = json.loads((tiny_workspace_ro / workspace.SCENE).read_text())
+    assert set(stored) >= {"frame", "cameras", "points", "models"}
+
+
+def _far_away_edit(scene):
+    """Move the last registered camera far beyond the scene, facing away from it."""
+    xs = [c.x for c in scene.cameras if c.registered]
+    camera = [c for c in scene.cameras if c.registered][-1]
+    far = max(xs) + 50 * (max(xs) - min(xs) + 1)
+    return EditSet([CameraEdit(camera.image_id, far, 0.0, 0.0)], rule="paper"), camera
+
+
+def test_prune_writes_a_new_workspace_and_keeps_the_base(tiny_workspace, tmp_path):
+    scene = workspace.load_scene(tiny_workspace)
+    edits, moved = _far_away_edit(scene)
+    pairs_before = workspace.verified_pairs(tiny_workspace)
+    new = tmp_path / "next"
+    outcome = workspace.prune(tiny_workspace, edits, new)
+    involving = {p for p in pairs_before if moved.image_id in p}
+    assert set(outcome.deleted) == involving and involving
+    assert outcome.removed_by_test == {"frustum": len(involving)}
+    assert workspace.verified_pairs(tiny_workspace) == pairs_before
+    assert set(workspace.verified_pairs(new)) == set(pairs_before) - involving
+    assert (new / "sparse" / "0").is_dir() and (new / workspace.EDITS).is_file()
+    record = json.loads((new / workspace.PRUNING).read_text())
+    assert len(record["deleted_pairs"]) == len(involving)
+    assert outcome.components_after == outcome.components_before + 1
+
+
+def test_map_again_after_cutting_a_camera_leaves_it_out(tiny_workspace, tmp_path):
+    scene = workspace.load_scene(tiny_workspace)
+    edits, moved = _far_away_edit(scene)
+    new = tmp_path / "next"
+    workspace.prune(tiny_workspace, edits, new)
+    workspace.map_again(new, options=TINY_OPTIONS, align_to=tiny_workspace,
+                        moved=frozenset({moved.image_id}))
+    after = workspace.load_scene(new)
+    assert not after.camera(moved.image_id).registered
+    kept = [c for c in after.cameras if c.registered]
+    assert len(kept) >= workspace.stats(tiny_workspace)["num_registered"] - 2
+    # aligned to the parent: unmoved cameras stay where they were (5% of the path length)
+    before = {c.image_id: c for c in scene.cameras}
+    xs = [c.x for c in scene.cameras if c.registered]
+    tolerance = 0.05 * (max(xs) - min(xs))
+    assert all(abs(c.x - before[c.image_id].x) < tolerance for c in kept if before[c.image_id].x)
+
+
+def test_unknown_image_and_missing_workspace_are_clear_errors(tiny_workspace, tmp_path):
+    with pytest.raises(UnknownImage):
+        workspace.preview(tiny_workspace, EditSet([CameraEdit(9999, 0, 0, 0)]))
+    with pytest.raises(MissingWorkspace, match="not a workspace"):
+        workspace.preview(tmp_path / "nowhere", EditSet())
