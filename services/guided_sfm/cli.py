@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import PIL.Image  # noqa: F401  (before pycolmap: Pillow after it corrupts the heap on PNG save)
-
 import argparse
 import json
 import logging
@@ -11,6 +9,7 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+import PIL.Image  # noqa: F401  (before pycolmap: Pillow after it corrupts the heap on PNG save)
 from tqdm import tqdm
 
 from guided_sfm.core.errors import DomainError

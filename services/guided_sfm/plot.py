@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.py)
-
 from pathlib import Path
 
 import matplotlib
+import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.py)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402

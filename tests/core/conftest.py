@@ -1,10 +1,9 @@
 """Session fixtures: the tiny rendered sample, reconstructed once with real pycolmap."""
 
-import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.py)
-
 import shutil
 from pathlib import Path
 
+import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.py)
 import pycolmap
 import pytest
 

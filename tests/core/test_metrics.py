@@ -48,7 +48,8 @@ def _cameras(count: int, seed: int):
 def _into_model(truth, sim: Similarity):
     """Truth cameras expressed in a model world that `sim` maps onto the truth."""
     rotation, scale, translation = sim.rotation, sim.scale, sim.translation
-    return {n: (r @ rotation, rotation.T @ (c - translation) / scale) for n, (r, c) in truth.items()}
+    return {n: (r @ rotation, rotation.T @ (c - translation) / scale)
+            for n, (r, c) in truth.items()}
 
 
 def test_camera_errors_vanish_for_a_similar_model_and_show_a_moved_camera():

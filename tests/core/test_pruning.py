@@ -5,7 +5,8 @@ from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
 from guided_sfm.core.pruning import prune_pairs
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
 
-FRAME = GroundFrame(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0]))
+FRAME = GroundFrame(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
+                    np.array([0, 0, 1.0]))
 
 
 def _camera(image_id, x=None, y=None, yaw=None, fov=60.0, range_=5.0):

@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+
 from guided_sfm.core.errors import InvalidInput
 from guided_sfm.sample import DEFAULT_LAYOUT, LAYOUTS, write_sample
 from guided_sfm.sample.geometry import look

@@ -10,27 +10,22 @@ import numpy as np
 
 from guided_sfm.core import colmap_db, colmap_model, metrics, workspace
 from guided_sfm.core.errors import EmptyModel
-from guided_sfm.core.geometry import rotation_angle_deg
 from guided_sfm.core.truth import Truth, false_pairs, load_truth
 from guided_sfm.core.types import pair_key
-
-INLIER_M = 0.15  # alignment inlier threshold on camera centres
-WRONG_M = 0.3  # a camera is wrong when its centre is off by more than this
-WRONG_DEG = 10.0  # or its rotation by more than this
 
 
 @dataclass(frozen=True)
 class CameraStatus:
     """Per registered camera of the largest model: its error after alignment to the truth."""
 
-    errors: dict[str, tuple[float, float]]  # name -> (centre error m, rotation error deg)
+    errors: dict[str, metrics.CameraError]
     unregistered: list[str]
     num_models: int
     truth_from_model: metrics.Similarity
 
     @property
     def wrong(self) -> list[str]:
-        return sorted(n for n, (m, deg) in self.errors.items() if m > WRONG_M or deg > WRONG_DEG)
+        return sorted(name for name, bad in metrics.classify(self.errors).items() if bad)
 
     @property
     def right(self) -> list[str]:
@@ -47,24 +42,21 @@ def camera_status(ws: Path, truth: Truth, reference: list[str] | None = None) ->
     if len(names) < 3:
         raise EmptyModel(f"{ws}: fewer than 3 reference cameras to align with the truth")
     sim = metrics.align_similarity(np.array([poses[n][1] for n in names]),
-                                   np.array([truth.cameras[n].center for n in names]),
-                                   threshold=INLIER_M)
-    errors = {}
-    for name, (rotation, center) in poses.items():
-        true = truth.cameras[name]
-        aligned_rotation = rotation @ np.asarray(sim.rotation).T
-        errors[name] = (float(np.linalg.norm(sim.apply(center[None])[0] - true.center)),
-                        rotation_angle_deg(true.rotation, aligned_rotation))
+                                   np.array([truth.cameras[n].center for n in names]))
+    true_poses = {n: (c.rotation, c.center) for n, c in truth.cameras.items()}
     all_names = set(colmap_db.image_names(workspace.require(ws)).values())
-    return CameraStatus(errors, sorted(all_names - set(poses)), len(models), sim)
+    return CameraStatus(metrics.camera_errors(poses, true_poses, sim),
+                        sorted(all_names - set(poses)), len(models), sim)
 
 
 def _target_errors(status: CameraStatus, targets: list[str]) -> dict[str, float | None]:
     found = [status.errors[n] for n in targets if n in status.errors]
     if not found:
         return {"translation_mse": None, "rotation_mae_deg": None}
-    metres, degrees = np.array(found).T
-    return {"translation_mse": float(np.mean(metres**2)), "rotation_mae_deg": float(np.mean(degrees))}
+    metres = np.array([e.center for e in found])
+    degrees = np.array([e.rotation_deg for e in found])
+    return {"translation_mse": float(np.mean(metres**2)),
+            "rotation_mae_deg": float(np.mean(degrees))}
 
 
 def pruning_report(ws: Path, parent: Path, truth: Truth) -> dict | None:
@@ -73,11 +65,13 @@ def pruning_report(ws: Path, parent: Path, truth: Truth) -> dict | None:
     if not record_file.is_file() or truth.depth_dir is None:
         return None
     ids = workspace.image_ids(parent)
-    deleted = {pair_key(ids[a], ids[b]) for a, b in json.loads(record_file.read_text())["deleted_pairs"]}
+    named = json.loads(record_file.read_text())["deleted_pairs"]
+    deleted = {pair_key(ids[a], ids[b]) for a, b in named}
     false = false_pairs(workspace.require(parent), truth)
     precision, recall, f1 = metrics.pruning_scores(deleted, false)
-    return {"deleted": len(deleted), "false_pairs": len(false), "true_deleted": len(deleted & false),
-            "precision": precision, "recall": recall, "f1": f1}
+    return {"deleted": len(deleted), "false_pairs": len(false),
+            "true_deleted": len(deleted & false), "precision": precision, "recall": recall,
+            "f1": f1}
 
 
 def evaluate_workspace(ws: Path, truth_file: Path, reference_from: Path | None = None) -> dict:

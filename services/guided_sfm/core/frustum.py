@@ -45,7 +45,7 @@ def _arrays(*values) -> list[np.ndarray]:
 
 
 def frustum_vertices(x, y, yaw_deg, fov_deg, range_, ids: Sequence | None = None) -> np.ndarray:
-    """(N, 3, 2) triangles: apex at (x, y), axis along yaw (deg CCW), apex angle fov, height range."""
+    """(N, 3, 2) triangles in frame units: apex (x, y), axis at yaw (deg CCW), fov, height range."""
     validate_frusta(x, y, yaw_deg, fov_deg, range_, ids)
     x, y, yaw, fov, rng = _arrays(x, y, yaw_deg, fov_deg, range_)
     half = np.radians(fov) / 2.0

@@ -1,4 +1,4 @@
-"""Rotation and camera helpers in COLMAP's convention: x_cam = cam_from_world_rotation @ x_world + t.
+"""Rotation and camera helpers in COLMAP's convention: x_cam = R_cam_from_world @ x_world + t.
 
 Camera axes: x right, y down, z forward. Quaternions here are (w, x, y, z); pycolmap's
 `Rotation3d.quat` is (x, y, z, w), use `qvec_from_pycolmap` to convert.

@@ -99,7 +99,7 @@ def _refit(points: np.ndarray, plane: Plane, up: np.ndarray, threshold: float) -
         if abs(refit.normal @ up) < np.cos(np.radians(MAX_TILT_DEG)):
             break
         plane = refit
-        # The generous RANSAC band also catches the foot of walls; 3 sigma (MAD) of the fit does not.
+        # The generous RANSAC band also catches the foot of walls; 3 sigma (MAD) of the fit won't.
         sigma = 1.4826 * np.median(np.abs(plane.distances(points[inliers])))
         threshold = min(threshold, max(3.0 * sigma, 1e-9))
     return Plane(plane.point, plane.normal if plane.normal @ up >= 0 else -plane.normal)
