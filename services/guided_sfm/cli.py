@@ -130,8 +130,10 @@ def cmd_map(args: argparse.Namespace) -> None:
     from guided_sfm.core import workspace
 
     with ProgressBar() as bar:
-        workspace.map_again(Path(args.workspace), options=_options(args), progress=bar)
-    print_table(sorted(workspace.stats(Path(args.workspace)).items()))
+        report = workspace.map_again(Path(args.workspace), options=_options(args), progress=bar,
+                                     cold=args.cold)
+    print_table([("mode", report.mode), ("fallback", report.fallback or "-"),
+                 ("seconds", report.seconds), *sorted(workspace.stats(Path(args.workspace)).items())])
 
 
 def cmd_evaluate(args: argparse.Namespace) -> None:
@@ -151,7 +153,7 @@ def cmd_demo(args: argparse.Namespace) -> None:
     with ProgressBar() as bar:
         result = demo.run_demo(layout=args.layout, seed=args.seed, rounds=args.rounds,
                                rule=args.rule, out_dir=Path(args.out) if args.out else None,
-                               progress=bar)
+                               progress=bar, cold=args.cold)
     if args.json:
         print_json(result)
     else:
@@ -183,7 +185,8 @@ def build_parser() -> argparse.ArgumentParser:
          [("--layout", {"default": None}), ("--seed", {"type": int, "default": 0}),
           ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": "paper",
                                                                "choices": ["paper", "default"]}),
-          ("--out", {"default": None}), ("--json", {"action": "store_true"})])
+          ("--out", {"default": None}), ("--cold", {"action": "store_true"}),
+          ("--json", {"action": "store_true"})])
     _register_service(sub)
     return parser
 

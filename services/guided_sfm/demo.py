@@ -51,11 +51,12 @@ class StageClock:
 
 def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1,
              rule: str = "paper", out_dir: Path | None = None,
-             options: SfmOptions = SfmOptions(), progress: Progress = no_progress) -> dict:
+             options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
+             cold: bool = False) -> dict:
     """Run the loop; returns {layout, rule, rounds: [per-round report], summary}."""
     if out_dir is None:
         with tempfile.TemporaryDirectory(prefix="guided-sfm-demo-") as tmp:
-            return run_demo(layout, seed, rounds, rule, Path(tmp), options, progress)
+            return run_demo(layout, seed, rounds, rule, Path(tmp), options, progress, cold)
     clock = StageClock(progress)
     with clock.timed("render"):
         sample.write_sample(out_dir / "sample", layout, seed)
@@ -78,13 +79,13 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         new = out_dir / f"round{number}"
         with clock.timed("prune"):
             outcome = workspace.prune(base, edits, new)
-        workspace.map_again(new, options=options, progress=clock, align_to=base,
-                            moved=frozenset(c.image_id for c in edits.cameras))
+        mapped = workspace.map_again(new, options=options, progress=clock, cold=cold)
         report = evaluation.evaluate_workspace(new, truth_file, reference_from=base)
         reports.append({"round": number, **report, "num_moved": len(edits.cameras),
                         "components_before": outcome.components_before,
                         "components_after": outcome.components_after,
                         "split": report["num_models"] > reports[-1]["num_models"],
+                        "map_mode": mapped.mode, "map_fallback": mapped.fallback,
                         "seconds": clock.take()})
         base = new
     return {"layout": layout, "rule": rule, "seed": seed, "rounds": reports,
@@ -106,7 +107,8 @@ def _summary(reports: list[dict]) -> dict:
 ROUND_COLUMNS = [("round", "round"), ("registered", "num_registered"), ("wrong", "num_wrong"),
                  ("unreg.", "num_unregistered"), ("models", "num_models"),
                  ("moved", "num_moved"), ("fixed", "num_fixed"),
-                 ("rot MAE", "rotation_mae_deg"), ("trans MSE", "translation_mse")]
+                 ("rot MAE", "rotation_mae_deg"), ("trans MSE", "translation_mse"),
+                 ("re-map", "map_mode")]
 
 
 def _cell(value: object) -> str:

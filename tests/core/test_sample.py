@@ -13,11 +13,7 @@ from guided_sfm.sample.writer import build_layout
 
 
 def _files(root):
-    return {
-        p.relative_to(root).as_posix(): p.read_bytes()
-        for p in sorted(root.rglob("*"))
-        if p.is_file()
-    }
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
 def _rotation(qvec):
@@ -67,9 +63,7 @@ def test_outputs_follow_the_truth_contract(tiny_sample):
         np.testing.assert_allclose(-r.T @ np.array(im["tvec"]), im["center"], atol=1e-9)
 
 
-@pytest.mark.parametrize(
-    "point", [(1.5, 2.99, 1.5), (6.5, 2.99, 1.6), (3.0, 2.7, 0.0), (5.0, 2.75, 0.0)]
-)
+@pytest.mark.parametrize("point", [(1.5, 2.99, 1.5), (6.5, 2.99, 1.6), (3.0, 2.7, 0.0), (5.0, 2.75, 0.0)])
 def test_depth_agrees_with_truth_pose(tiny_sample, point):
     truth = json.loads((tiny_sample / "truth.json").read_text())
     cam = truth["camera"]

@@ -6,6 +6,7 @@ import logging
 import shutil
 import tempfile
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from itertools import combinations
 from pathlib import Path
@@ -70,7 +71,7 @@ class CancelToken:
 
     @property
     def cancelled(self) -> bool:
-        return self.colmap.is_cancelled()
+        return bool(self.colmap.is_cancelled)
 
     def check(self) -> None:
         if self.cancelled:
@@ -84,6 +85,15 @@ def _token(cancel: CancelToken | None) -> pycolmap.CancellationToken | None:
 def _check(cancel: CancelToken | None) -> None:
     if cancel is not None:
         cancel.check()
+
+
+@contextmanager
+def _cancellable():
+    """pycolmap reports a cancelled token as InterruptedError; callers see Cancelled."""
+    try:
+        yield
+    except InterruptedError as exc:
+        raise Cancelled("the job was cancelled") from exc
 
 
 def list_images(image_dir: Path) -> list[str]:
@@ -127,12 +137,13 @@ def extract_features(
             reader = pycolmap.ImageReaderOptions()
             reader.camera_model = options.camera_model
             reader.existing_camera_id = camera_id
-            pycolmap.extract_features(
-                database, image_dir, image_names=chunk,
-                camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
-                extraction_options=extraction, device=pycolmap.Device.cpu,
-                cancellation_token=_token(cancel),
-            )
+            with _cancellable():
+                pycolmap.extract_features(
+                    database, image_dir, image_names=chunk,
+                    camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
+                    extraction_options=extraction, device=pycolmap.Device.cpu,
+                    cancellation_token=_token(cancel),
+                )
             if camera_id == -1:
                 camera_id = _camera_of(database, chunk[0])
             done += len(chunk)
@@ -184,11 +195,12 @@ def match_features(
             pair_file.write_text("".join(f"{db_names[a]} {db_names[b]}\n" for a, b in block))
             pairing = pycolmap.ImportedPairingOptions()
             pairing.match_list_path = pair_file
-            pycolmap.match_image_pairs(
-                database, matching_options=matching, pairing_options=pairing,
-                verification_options=verification, device=pycolmap.Device.cpu,
-                cancellation_token=_token(cancel),
-            )
+            with _cancellable():
+                pycolmap.match_image_pairs(
+                    database, matching_options=matching, pairing_options=pairing,
+                    verification_options=verification, device=pycolmap.Device.cpu,
+                    cancellation_token=_token(cancel),
+                )
             progress("match", min(1.0, (start + len(block)) / len(pairs)))
     _check(cancel)
 
@@ -210,6 +222,7 @@ def map_database(
     progress: Progress = no_progress,
     cancel: CancelToken | None = None,
     input_model: Path | None = None,
+    fix_existing: bool = False,
 ) -> list[pycolmap.Reconstruction]:
     """Map the database into sparse_dir/0, /1, ... (largest model first); returns the models."""
     _check(cancel)
@@ -228,11 +241,14 @@ def map_database(
                 registered[0] += 1
                 progress("map", min(0.99, registered[0] / num_images))
 
-            models = pycolmap.incremental_mapping(
-                database, image_dir, tmp, _incremental_options(options, image_dir),
-                input_path=input_model or "", next_image_callback=next_image,
-                cancellation_token=_token(cancel),
-            )
+            mapping = _incremental_options(options, image_dir)
+            mapping.fix_existing_frames = fix_existing
+            with _cancellable():
+                models = pycolmap.incremental_mapping(
+                    database, image_dir, tmp, mapping,
+                    input_path=input_model or "", next_image_callback=next_image,
+                    cancellation_token=_token(cancel),
+                )
     _check(cancel)
     ordered = sorted(models.values(), key=lambda rec: -rec.num_reg_images())
     if not ordered:

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import colmap_db, colmap_model, match_graph, pruning, sfm, topdown
+from guided_sfm.core import colmap_db, colmap_model, match_graph, pruning, remap, sfm, topdown
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
 from guided_sfm.core.sfm import CancelToken, SfmOptions
@@ -88,39 +88,58 @@ def reconstruct(image_dir: Path, workspace: Path, options: SfmOptions = SfmOptio
     workspace.mkdir(parents=True, exist_ok=True)
     database = workspace / DATABASE
     database.unlink(missing_ok=True)
+    shutil.rmtree(workspace / SPARSE, ignore_errors=True)  # a fresh start aligns to nothing
     image_dir = Path(image_dir).resolve()
     write_meta(workspace, {"image_dir": str(image_dir), "options": options.to_dict()})
     report = spanned(progress)
     sfm.extract_features(image_dir, database, options, report, cancel)
     sfm.match_features(database, options, report, cancel)
     colmap_db.finalize(database)
-    map_again(workspace, image_dir, options, report, cancel)
+    map_again(workspace, image_dir, options, report, cancel, cold=True)
+
+
+def touched_images(workspace: Path) -> set[int]:
+    """Images a round edited (moved cameras, members of manual deletions), from edits.json."""
+    path = Path(workspace) / EDITS
+    if not path.is_file():
+        return set()
+    edits = json.loads(path.read_text())
+    return {c["image_id"] for c in edits.get("cameras", [])} | {
+        i for pair in edits.get("delete_pairs", []) for i in pair}
 
 
 def map_again(workspace: Path, image_dir: Path | None = None,
               options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
               cancel: CancelToken | None = None, align_to: Path | None = None,
-              moved: frozenset[int] = frozenset()) -> None:
-    """Map the workspace's database into its sparse/ again and rebuild its scene.
+              moved: frozenset[int] | None = None, cold: bool = False) -> remap.MapReport:
+    """Map the workspace's database again into its sparse/ and rebuild its scene.
 
-    With align_to (the parent workspace), the new models are moved onto the parent's by a
-    similarity on the cameras the edit did not move, so the view does not jump.
+    Warm (from the workspace's current model without the moved images) unless `cold` or there
+    is no model. The result is aligned by a similarity on the unmoved cameras to the model it
+    replaces (or to align_to's), so the view does not jump between versions.
     """
     database = require(workspace)
-    image_dir = Path(image_dir) if image_dir else globals()["image_dir"](workspace)
-    sparse = Path(workspace) / SPARSE
+    images = Path(image_dir) if image_dir else globals()["image_dir"](workspace)
+    moved = touched_images(workspace) if moved is None else set(moved)
+    base_models = load_models(workspace)
+    reference = load_models(align_to) if align_to else base_models
     staging = Path(workspace) / (SPARSE + ".new")
-    models = sfm.map_database(database, image_dir, staging, options, progress, cancel)
+    try:
+        models, report = remap.map_warm_or_cold(database, images, staging, base_models, moved,
+                                                options, progress, cancel, cold)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
+        raise
     colmap_db.finalize(database)
-    if align_to is not None and (Path(align_to) / SPARSE / "0").is_dir():
-        reference = colmap_model.load_models(Path(align_to) / SPARSE)[0]
-        colmap_model.align_models(models, reference, exclude=moved)
+    if reference and colmap_model.align_models(models, reference[0], exclude=frozenset(moved)):
         for index, model in enumerate(models):
             model.write_binary(staging / str(index))
+    sparse = Path(workspace) / SPARSE
     if sparse.exists():
         shutil.rmtree(sparse)
     staging.rename(sparse)
     write_scene(workspace)
+    return report
 
 
 def load_models(workspace: Path) -> list[pycolmap.Reconstruction]:

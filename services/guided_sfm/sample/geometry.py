@@ -64,9 +64,7 @@ def horizontal_quad(
     )
 
 
-def box_quads(
-    center_xy, size, facing_deg: float, top: int, sides: int, flat: bool = True
-) -> list[Quad]:
+def box_quads(center_xy, size, facing_deg: float, top: int, sides: int, flat: bool = True) -> list[Quad]:
     """Top and four sides of a box (size = width, depth, height) standing on the floor."""
     w, d, h = size
     yaw = np.radians(facing_deg)

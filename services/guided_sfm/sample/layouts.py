@@ -49,9 +49,7 @@ def room(
                 else tx.plaster(rng, px, wall_px, int(40 * w))
             )
             scene.quads.append(
-                wall_quad(
-                    (x0 + w / 2, wall_y, height / 2), facing, w, height, scene.add_texture(img)
-                )
+                wall_quad((x0 + w / 2, wall_y, height / 2), facing, w, height, scene.add_texture(img))
             )
     for x, facing in ((0.0, 0.0), (length, 180.0)):
         img = tx.plaster(rng, int(width * WALL_TPM), wall_px, int(40 * width))
@@ -61,11 +59,7 @@ def room(
     for x0 in np.arange(0, length, panel):
         x1 = min(x0 + panel, length)
         fw, fh = int((x1 - x0) * FLOOR_TPM), int(width * FLOOR_TPM)
-        img = (
-            tx.wood_floor(rng, fw, fh, FLOOR_TPM)
-            if floor == "wood"
-            else tx.tiles(rng, fw, fh, FLOOR_TPM)
-        )
+        img = tx.wood_floor(rng, fw, fh, FLOOR_TPM) if floor == "wood" else tx.tiles(rng, fw, fh, FLOOR_TPM)
         scene.quads.append(horizontal_quad(x0, 0, x1, width, 0.0, scene.add_texture(img)))
         ceil = tx.tiles(rng, fw // 2, fh // 2, FLOOR_TPM / 2, 0.6)
         scene.quads.append(horizontal_quad(x0, 0, x1, width, height, scene.add_texture(ceil)))
@@ -91,9 +85,7 @@ def _poster(scene: Scene, rng: np.random.Generator, size) -> int:
     return scene.add_texture(tx.poster(rng, int(size[0] * WALL_TPM), int(size[1] * WALL_TPM)))
 
 
-def walk(
-    keys: list[tuple[float, float, float]], counts: list[int]
-) -> list[tuple[float, float, float]]:
+def walk(keys: list[tuple[float, float, float]], counts: list[int]) -> list[tuple[float, float, float]]:
     """Sample (x, y, yaw) linearly between consecutive keyframes, counts[i] samples per segment."""
     out = []
     for (a, b), n in zip(zip(keys[:-1], keys[1:], strict=True), counts, strict=True):
@@ -165,9 +157,8 @@ def office(seed: int) -> Layout:
     for x in (3.5, 7.0, 10.5):
         usize = (0.7, 1.0)
         hang(scene, _poster(scene, rng, usize), x, 0.0, 90.0, usize, 1.6)
-    path = walk(
-        [(1.0, 3.5, 80.0), (13.0, 3.5, 100.0), (13.0, 3.5, -90.0), (1.0, 3.5, -90.0)], [28, 4, 15]
-    )
+    keys = [(1.0, 3.2, 80.0), (11.0, 3.2, 100.0), (12.0, 3.5, 0.0), (11.0, 3.8, -90.0)]
+    path = walk([*keys, (1.0, 3.8, -90.0)], [23, 5, 5, 14])
     return Layout(scene, VGA, poses_along(path, rng, pitch=-14.0, sway=15.0))
 
 

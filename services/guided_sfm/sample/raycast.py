@@ -105,9 +105,7 @@ def render(scene: Scene, cam: PinholeCamera, cam_from_world: tuple[np.ndarray, n
     """Ray-cast one view: (H, W, 3) linear colour and (H, W) float32 z-depth (0 = no hit)."""
     r, t = cam_from_world
     center = -r.T @ t
-    k_inv = np.array(
-        [[1 / cam.fx, 0, -cam.cx / cam.fx], [0, 1 / cam.fy, -cam.cy / cam.fy], [0, 0, 1]]
-    )
+    k_inv = np.array([[1 / cam.fx, 0, -cam.cx / cam.fx], [0, 1 / cam.fy, -cam.cy / cam.fy], [0, 0, 1]])
     world_from_pixel = r.T @ k_inv  # ray direction (z_cam = 1) of homogeneous pixel (u, v, 1)
     us = np.arange(cam.width, dtype=np.float64) + 0.5
     vs = np.arange(cam.height, dtype=np.float64) + 0.5
@@ -132,9 +130,7 @@ def render(scene: Scene, cam: PinholeCamera, cam_from_world: tuple[np.ndarray, n
         rel = center - q.origin
         s = (rel @ q.u + hit * linear(q.u)) / (q.u @ q.u)
         tt = (rel @ q.v + hit * linear(q.v)) / (q.v @ q.v)
-        win = (
-            (hit > NEAR) & (hit < depth[r0:r1, c0:c1]) & (s >= 0) & (s <= 1) & (tt >= 0) & (tt <= 1)
-        )
+        win = (hit > NEAR) & (hit < depth[r0:r1, c0:c1]) & (s >= 0) & (s <= 1) & (tt >= 0) & (tt <= 1)
         depth[r0:r1, c0:c1][win] = hit[win]
         ids[r0:r1, c0:c1][win] = k
         s_map[r0:r1, c0:c1][win] = s[win]
@@ -171,11 +167,7 @@ def _shade(scene, cam, world_from_pixel, center, depth, ids, s_map, t_map) -> np
         texels_per_m = max(w0 / np.linalg.norm(q.u), h0 / np.linalg.norm(q.v))
         footprint = z * np.linalg.norm(d, axis=1) / cam.fx / np.sqrt(np.maximum(cos, 0.05))
         level = np.clip(np.log2(np.maximum(footprint * texels_per_m, 1e-6)), 0, len(tex.levels) - 1)
-        l0 = (
-            np.minimum(level.astype(np.int64), len(tex.levels) - 2)
-            if len(tex.levels) > 1
-            else level * 0
-        )
+        l0 = np.minimum(level.astype(np.int64), len(tex.levels) - 2) if len(tex.levels) > 1 else level * 0
         frac = (level - l0)[:, None]
         s, t = s_map.ravel()[idx], t_map.ravel()[idx]
         col = np.empty((idx.size, 3))

@@ -45,9 +45,7 @@ def _colour(rng: np.random.Generator, lo: int = 0, hi: int = 256) -> tuple[int, 
     return tuple(int(c) for c in rng.integers(lo, hi, 3))
 
 
-def _modulate(
-    img: PIL.Image.Image, rng: np.random.Generator, amp: float, cell: float
-) -> np.ndarray:
+def _modulate(img: PIL.Image.Image, rng: np.random.Generator, amp: float, cell: float) -> np.ndarray:
     arr = np.asarray(img, dtype=np.float32)
     h, w = arr.shape[:2]
     light = 1.0 + amp * fbm(rng, h, w, cell)
@@ -78,14 +76,10 @@ def _scribbles(
         elif kind == 1:
             draw.ellipse([x, y, x + sx, y + sy], fill=col)
         elif kind == 2:
-            pts = [
-                (x + int(rng.integers(-sx, sx)), y + int(rng.integers(-sy, sy))) for _ in range(5)
-            ]
+            pts = [(x + int(rng.integers(-sx, sx)), y + int(rng.integers(-sy, sy))) for _ in range(5)]
             draw.line(pts, fill=col, width=int(rng.integers(1, max(2, sx // 6))))
         elif kind == 3:
-            pts = [
-                (x + int(rng.integers(-sx, sx)), y + int(rng.integers(-sy, sy))) for _ in range(3)
-            ]
+            pts = [(x + int(rng.integers(-sx, sx)), y + int(rng.integers(-sy, sy))) for _ in range(3)]
             draw.polygon(pts, fill=col)
         else:
             draw.text((x, y), _words(rng, 2), fill=col, font=_font(max(8, sy // 2)))
@@ -107,9 +101,7 @@ def poster(rng: np.random.Generator, w: int, h: int) -> np.ndarray:
     draw = PIL.ImageDraw.Draw(img)
     band = int(h * 0.18)
     draw.rectangle([0, 0, w, band], fill=_colour(rng, 0, 180))
-    draw.text(
-        (w // 20, band // 4), _words(rng, 2), fill=_colour(rng, 200, 256), font=_font(band // 2)
-    )
+    draw.text((w // 20, band // 4), _words(rng, 2), fill=_colour(rng, 200, 256), font=_font(band // 2))
     pic = [w // 12, band + h // 20, w - w // 12, int(h * 0.6)]
     draw.rectangle(pic, fill=_colour(rng))
     pw, ph = pic[2] - pic[0], pic[3] - pic[1]
@@ -165,9 +157,7 @@ def wood_floor(rng: np.random.Generator, w: int, h: int, tpm: float) -> np.ndarr
         tint = base * rng.uniform(0.75, 1.2) * rng.uniform(0.95, 1.05, 3)
         rows = slice(y0, y0 + plank)
         arr[rows] = tint * (0.8 + 0.2 * grain[rows, :, None])
-        for x in np.cumsum(rng.integers(int(0.8 * tpm), int(2.5 * tpm), 20)) - int(
-            rng.integers(0, tpm)
-        ):
+        for x in np.cumsum(rng.integers(int(0.8 * tpm), int(2.5 * tpm), 20)) - int(rng.integers(0, tpm)):
             if 0 <= x < w:
                 arr[rows, x : x + 2] *= 0.45
         arr[y0 : y0 + 2] *= 0.45

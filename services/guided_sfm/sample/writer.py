@@ -32,9 +32,7 @@ def to_photo(rgb: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
 
-def write_sample(
-    out_dir: Path, layout: str, seed: int = 0, progress: Progress = no_progress
-) -> Path:
+def write_sample(out_dir: Path, layout: str, seed: int = 0, progress: Progress = no_progress) -> Path:
     """Render every view of a layout into out_dir (images/, depth/, truth.json); returns out_dir."""
     spec = build_layout(layout, seed)
     out_dir = Path(out_dir)

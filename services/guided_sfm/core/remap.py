@@ -1,0 +1,91 @@
+"""Warm re-mapping: continue from the previous model without the edited cameras, guarded by a
+cold re-map when the warm result looks worse than where it started."""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pycolmap
+
+from guided_sfm.core import sfm
+from guided_sfm.core.errors import EmptyModel
+from guided_sfm.core.sfm import CancelToken, SfmOptions
+from guided_sfm.core.types import Progress, no_progress
+
+# Keeping the untouched cameras fixed is what makes a warm start fast; when many cameras move,
+# the rest were likely bent by the same false matches, so they are refined too.
+FIX_EXISTING_SHARE = 0.1
+# The warm result is rejected when its mean reprojection error grows beyond both of these.
+MAX_ERROR_RATIO, MAX_ERROR_GAIN_PX = 1.5, 0.5
+
+
+@dataclass(frozen=True)
+class MapReport:
+    """How a workspace was mapped: warm or cold, why a warm start fell back, how long it took."""
+
+    mode: str
+    fallback: str | None
+    seconds: float
+    num_registered: int
+    num_models: int
+
+    def message(self) -> str:
+        text = f"{self.mode} re-map: {self.num_registered} images in {self.num_models} model(s)"
+        if self.fallback:
+            text += f"; the warm start fell back to a cold re-map ({self.fallback})"
+        return text
+
+
+def without_images(model: pycolmap.Reconstruction, image_ids: set[int]) -> pycolmap.Reconstruction:
+    """A copy of the model with those images de-registered and their lone points dropped."""
+    trimmed = pycolmap.Reconstruction(model)
+    observations = pycolmap.ObservationManager(trimmed)
+    for image_id in sorted(image_ids):
+        if trimmed.exists_image(image_id) and trimmed.image(image_id).has_pose:
+            observations.deregister_frame(trimmed.image(image_id).frame_id)
+    return trimmed
+
+
+def warm_result_problem(base: pycolmap.Reconstruction, models: list[pycolmap.Reconstruction],
+                        base_models: int) -> str | None:
+    """Why a warm result is worse than its base (fewer images, a split, large error), or None."""
+    if models[0].num_reg_images() < base.num_reg_images():
+        return f"{models[0].num_reg_images()} images registered, {base.num_reg_images()} before"
+    if len(models) > base_models:
+        return f"split into {len(models)} models, {base_models} before"
+    before, after = base.compute_mean_reprojection_error(), models[0].compute_mean_reprojection_error()
+    if after > max(before * MAX_ERROR_RATIO, before + MAX_ERROR_GAIN_PX):
+        return f"mean reprojection error {after:.2f} px, {before:.2f} px before"
+    return None
+
+
+def map_warm_or_cold(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
+                     moved: set[int], options: SfmOptions = SfmOptions(),
+                     progress: Progress = no_progress, cancel: CancelToken | None = None,
+                     cold: bool = False) -> tuple[list[pycolmap.Reconstruction], MapReport]:
+    """Map into sparse_dir: warm from base_models[0] unless cold or there is no base."""
+    start = time.perf_counter()
+    fallback = None
+    if not cold and base_models:
+        base = base_models[0]
+        fix = len(moved) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
+        with tempfile.TemporaryDirectory() as tmp:
+            without_images(base, moved).write_binary(tmp)
+            try:
+                models = sfm.map_database(database, image_dir, sparse_dir, options, progress,
+                                          cancel, input_model=Path(tmp), fix_existing=fix)
+                fallback = warm_result_problem(base, models, len(base_models))
+            except EmptyModel:
+                fallback = "the warm start registered nothing"
+        if fallback is None:
+            return models, _report("warm", None, start, models)
+    models = sfm.map_database(database, image_dir, sparse_dir, options, progress, cancel)
+    return models, _report("cold", fallback, start, models)
+
+
+def _report(mode: str, fallback: str | None, start: float, models: list) -> MapReport:
+    return MapReport(mode, fallback, round(time.perf_counter() - start, 2),
+                     models[0].num_reg_images(), len(models))

@@ -1,0 +1,75 @@
+"""Warm re-mapping: start from the base model without the moved cameras, guarded by a cold map."""
+
+import hashlib
+
+import pytest
+
+from guided_sfm.core import remap, workspace
+from guided_sfm.core.errors import Cancelled
+from guided_sfm.core.sfm import CancelToken
+from guided_sfm.core.types import CameraEdit, EditSet
+
+from .conftest import TINY_OPTIONS
+
+
+def _far_edit(scene):
+    placed = [c for c in scene.cameras if c.registered]
+    xs = [c.x for c in placed]
+    return EditSet([CameraEdit(placed[-1].image_id, max(xs) + 100 * (max(xs) - min(xs)), 0, 0)],
+                   rule="paper")
+
+
+def _near_edit(scene):
+    camera = [c for c in scene.cameras if c.registered][len(scene.cameras) // 2]
+    return EditSet([CameraEdit(camera.image_id, camera.x, camera.y, camera.yaw_deg)], rule="paper")
+
+
+def test_without_images_drops_the_moved_cameras_points(tiny_workspace_ro):
+    model = workspace.load_models(tiny_workspace_ro)[0]
+    image_id = sorted(model.reg_image_ids())[0]
+    trimmed = remap.without_images(model, {image_id})
+    assert image_id not in set(trimmed.reg_image_ids())
+    observations = sum(p.track.length() for p in trimmed.points3D.values())
+    assert observations < sum(p.track.length() for p in model.points3D.values())
+    for point in trimmed.points3D.values():
+        assert image_id not in {e.image_id for e in point.track.elements}
+        assert point.track.length() >= 2
+    assert model.num_reg_images() == len(trimmed.reg_image_ids()) + 1  # the base is untouched
+
+
+def test_warm_remap_registers_the_moved_camera_again(tiny_workspace, tmp_path):
+    edits = _near_edit(workspace.load_scene(tiny_workspace))
+    new = tmp_path / "next"
+    workspace.prune(tiny_workspace, edits, new)
+    report = workspace.map_again(new, options=TINY_OPTIONS)
+    assert report.mode == "warm" and report.fallback is None
+    assert report.num_registered == workspace.stats(tiny_workspace)["num_registered"]
+    assert workspace.load_scene(new).camera(edits.cameras[0].image_id).registered
+
+
+def test_warm_remap_falls_back_to_cold_when_a_camera_cannot_return(tiny_workspace, tmp_path):
+    edits = _far_edit(workspace.load_scene(tiny_workspace))
+    new = tmp_path / "next"
+    workspace.prune(tiny_workspace, edits, new)
+    report = workspace.map_again(new, options=TINY_OPTIONS)
+    assert report.mode == "cold" and "registered" in report.fallback
+    assert "fell back to a cold re-map" in report.message()
+
+
+def test_cancelled_warm_remap_leaves_the_workspace_untouched(tiny_workspace, tmp_path):
+    edits = _near_edit(workspace.load_scene(tiny_workspace))
+    new = tmp_path / "next"
+    workspace.prune(tiny_workspace, edits, new)
+    digest = {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+              for p in (new / "sparse" / "0").iterdir()}
+    token = CancelToken()
+
+    def cancel_on_first_report(stage, fraction):
+        token.cancel()
+
+    with pytest.raises(Cancelled):
+        workspace.map_again(new, options=TINY_OPTIONS, progress=cancel_on_first_report,
+                            cancel=token)
+    assert digest == {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+                      for p in (new / "sparse" / "0").iterdir()}
+    assert not (new / "sparse.new").exists()
