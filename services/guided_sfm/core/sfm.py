@@ -271,5 +271,6 @@ def _write_models(models: Sequence[pycolmap.Reconstruction], sparse_dir: Path) -
 
 
 def set_colmap_verbosity(verbose: bool) -> None:
-    """COLMAP logs every step at INFO on stderr; keep only errors unless asked."""
+    """COLMAP logs every step at INFO; keep only errors unless asked, on stderr, not in files."""
+    pycolmap.logging.logtostderr = True
     pycolmap.logging.minloglevel = 0 if verbose else 2
