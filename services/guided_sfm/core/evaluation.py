@@ -74,10 +74,15 @@ def pruning_report(ws: Path, parent: Path, truth: Truth) -> dict | None:
             "f1": f1}
 
 
-def evaluate_workspace(ws: Path, truth_file: Path, reference_from: Path | None = None) -> dict:
-    """The design's figures for a workspace; with reference_from, relative to that workspace."""
+def evaluate_workspace(ws: Path, truth_file: Path, reference_from: Path | None = None,
+                       before_reference: list[str] | None = None) -> dict:
+    """The design's figures for a workspace; with reference_from, relative to that workspace.
+
+    before_reference: the cameras to align reference_from on (default: all, robustly); a loop
+    of rounds passes the cameras right in the round before, so "right" keeps one meaning.
+    """
     truth = load_truth(truth_file)
-    before = camera_status(reference_from, truth) if reference_from else None
+    before = camera_status(reference_from, truth, before_reference) if reference_from else None
     status = camera_status(ws, truth, before.right if before else None)
     report: dict = {
         "num_images": len(status.errors) + len(status.unregistered),
