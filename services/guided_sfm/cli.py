@@ -147,13 +147,26 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
         print_table([(k, v) for k, v in report.items() if not isinstance(v, list | dict)])
 
 
+def _tolerances(items: Sequence[str] | None) -> dict[str, float]:
+    """NAME=VALUE pairs (the edit set's tolerances) as a dict; the core validates the names."""
+    out = {}
+    for item in items or []:
+        name, _, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError as exc:
+            raise DomainError(f"--tolerance {item!r}: expected NAME=NUMBER") from exc
+    return out
+
+
 def cmd_demo(args: argparse.Namespace) -> None:
     from guided_sfm import demo
 
     with ProgressBar() as bar:
         result = demo.run_demo(layout=args.layout, seed=args.seed, rounds=args.rounds,
                                rule=args.rule, out_dir=Path(args.out) if args.out else None,
-                               progress=bar, cold=args.cold)
+                               progress=bar, cold=args.cold,
+                               tolerances=_tolerances(args.tolerance), reuse=args.reuse)
     if args.json:
         print_json(result)
     else:
@@ -183,9 +196,13 @@ def build_parser() -> argparse.ArgumentParser:
           ("--json", {"action": "store_true"})])
     _add(sub, "demo", cmd_demo, "the paper's loop headless on a freshly rendered sample",
          [("--layout", {"default": None}), ("--seed", {"type": int, "default": 0}),
-          ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": "paper",
+          ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": "default",
                                                                "choices": ["paper", "default"]}),
           ("--out", {"default": None}), ("--cold", {"action": "store_true"}),
+          ("--tolerance", {"action": "append", "metavar": "NAME=VALUE",
+                           "help": "override one of the default rule's tolerances"}),
+          ("--reuse", {"action": "store_true",
+                       "help": "start from --out's existing sample and round0 if present"}),
           ("--json", {"action": "store_true"})])
     _register_service(sub)
     return parser

@@ -52,18 +52,25 @@ class StageClock:
 def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1,
              rule: str = "paper", out_dir: Path | None = None,
              options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
-             cold: bool = False) -> dict:
-    """Run the loop; returns {layout, rule, rounds: [per-round report], summary}."""
+             cold: bool = False, tolerances: dict[str, float] | None = None,
+             reuse: bool = False) -> dict:
+    """Run the loop; returns {layout, rule, rounds: [per-round report], summary}.
+
+    With reuse, an out_dir that already holds the sample and its first reconstruction (round0)
+    starts from them, so rules and tolerances compare on the same reconstruction.
+    """
     if out_dir is None:
         with tempfile.TemporaryDirectory(prefix="guided-sfm-demo-") as tmp:
-            return run_demo(layout, seed, rounds, rule, Path(tmp), options, progress, cold)
+            return run_demo(layout, seed, rounds, rule, Path(tmp), options, progress, cold,
+                            tolerances)
     clock = StageClock(progress)
-    with clock.timed("render"):
-        sample.write_sample(out_dir / "sample", layout, seed)
     truth_file = out_dir / "sample" / "truth.json"
-    truth = load_truth(truth_file)
     base = out_dir / "round0"
-    workspace.reconstruct(out_dir / "sample" / "images", base, options, clock)
+    if not (reuse and truth_file.is_file() and (base / workspace.SPARSE).is_dir()):
+        with clock.timed("render"):
+            sample.write_sample(out_dir / "sample", layout, seed)
+        workspace.reconstruct(out_dir / "sample" / "images", base, options, clock)
+    truth = load_truth(truth_file)
     first = evaluation.evaluate_workspace(base, truth_file)
     reports = [{"round": 0, **first, "seconds": clock.take()}]
     status = evaluation.camera_status(base, truth)
@@ -73,7 +80,7 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
             break
         edits = EditSet(simulated_user.place_cameras(workspace.load_scene(base), truth, targets,
                                                      status.truth_from_model, seed + number),
-                        rule=rule)
+                        rule=rule, tolerances=dict(tolerances or {}))
         new = out_dir / f"round{number}"
         with clock.timed("prune"):
             outcome = workspace.prune(base, edits, new)
@@ -89,7 +96,8 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         # "Right" keeps one meaning across rounds: align on what was right before this round.
         status = evaluation.camera_status(new, truth, reference=status.right)
         base = new
-    return {"layout": layout, "rule": rule, "seed": seed, "rounds": reports,
+    return {"layout": layout, "rule": rule, "seed": seed, "tolerances": dict(tolerances or {}),
+            "rounds": reports,
             "summary": _summary(reports)}
 
 

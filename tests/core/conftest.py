@@ -8,10 +8,8 @@ import pycolmap
 import pytest
 
 from guided_sfm.core import workspace
-from guided_sfm.core.sfm import SfmOptions
+from guided_sfm.core.sfm import SfmOptions, set_colmap_verbosity
 from guided_sfm.sample import write_sample
-
-from guided_sfm.core.sfm import set_colmap_verbosity
 
 set_colmap_verbosity(False)
 TINY_OPTIONS = SfmOptions(max_num_features=1024, num_threads=2)

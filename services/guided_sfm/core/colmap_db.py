@@ -17,6 +17,7 @@ from guided_sfm.core.types import PairKey, pair_key
 # Mapping reads keypoints, matches and two-view geometries, never descriptors, so a pruned
 # version's database leaves them out: it costs kilobytes per image instead of megabytes.
 SKIPPED_TABLES = ("descriptors",)
+SQL_CHUNK = 500  # pair ids per IN (...) query, below SQLite's bound-parameter limit
 
 
 @contextmanager
@@ -67,6 +68,22 @@ def all_inlier_matches(path: Path) -> dict[PairKey, np.ndarray]:
             "SELECT pair_id, rows, cols, data FROM two_view_geometries WHERE rows > 0")
         return {pair_key(*pycolmap.pair_id_to_image_pair(pid)):
                 _blob(data, n, cols, np.uint32).astype(np.int64) for pid, n, cols, data in rows}
+
+
+def inlier_matches_of(path: Path, pairs: Iterable[PairKey]) -> dict[PairKey, np.ndarray]:
+    """The listed pairs' inlier matches (columns in pair-key order); pairs without any are left out."""
+    wanted = sorted({pycolmap.image_pair_to_pair_id(*pair_key(*pair)) for pair in pairs})
+    found = {}
+    with read_only(path) as conn:
+        for start in range(0, len(wanted), SQL_CHUNK):
+            chunk = wanted[start:start + SQL_CHUNK]
+            rows = conn.execute("SELECT pair_id, rows, cols, data FROM two_view_geometries "
+                                f"WHERE rows > 0 AND pair_id IN ({','.join('?' * len(chunk))})",
+                                chunk)
+            found.update({pair_key(*pycolmap.pair_id_to_image_pair(pid)):
+                          _blob(data, n, cols, np.uint32).astype(np.int64)
+                          for pid, n, cols, data in rows})
+    return found
 
 
 def keypoints(path: Path, image_id: int) -> np.ndarray:

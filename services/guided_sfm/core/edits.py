@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
+from guided_sfm.core.tolerances import resolve
 from guided_sfm.core.types import CameraEdit, EditSet, pair_key
 
 RULES = ("default", "paper")
@@ -79,6 +80,7 @@ def parse_edits(body: Any, ids: Mapping[str, int]) -> EditSet:
     if not isinstance(tolerances, Mapping):
         raise InvalidInput("tolerances must be an object of numbers")
     checked = {str(k): _number(v, f"tolerance {k}") for k, v in tolerances.items()}
+    resolve(checked)
     return EditSet(cameras, sorted(set(pairs)), rule, checked)
 
 

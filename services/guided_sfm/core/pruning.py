@@ -1,18 +1,27 @@
-"""Algorithm 1 (design.md): pairs to delete for an edit set, with the tests that removed them."""
+"""Algorithm 1 (design.md) and the default rule: pairs to delete for an edit set, with the tests
+that removed them (docs/pruning-rule.md)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from itertools import chain
 
 import numpy as np
 import shapely
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
+from guided_sfm.core.evidence import Evidence, flat_matches
 from guided_sfm.core.frustum import frustum_polygons
+from guided_sfm.core.match_placement import placement_test
+from guided_sfm.core.placement import place
+from guided_sfm.core.relative_rotation import rotation_test
+from guided_sfm.core.tolerances import Tolerances, resolve
 from guided_sfm.core.types import CameraEdit, EditSet, PairKey, PruneResult, TopDownScene, pair_key
 
 FRUSTUM = "frustum"
+PLACEMENT = "placement"
+ROTATION = "rotation"
 MANUAL = "manual"
 
 PlacedPose = tuple[float, float, float, float | None, float]  # x, y, yaw_deg, fov_deg, range
@@ -48,18 +57,23 @@ def _manual_pairs(scene: TopDownScene, edits: EditSet,
     return keys
 
 
-def placed_poses(scene: TopDownScene, moved: Mapping[int, CameraEdit]) -> dict[int, PlacedPose]:
-    """2D pose (frame units, deg) of every placed camera: the edit if moved, else the model's."""
+def placed_poses(scene: TopDownScene, moved: Mapping[int, CameraEdit],
+                 range_scale: float = 1.0) -> dict[int, PlacedPose]:
+    """2D pose (frame units, deg) of every placed camera: the edit if moved, else the model's.
+
+    range_scale multiplies the scene's default ranges, never a range the edit gives.
+    """
     poses: dict[int, PlacedPose] = {}
     for camera in scene.cameras:
         edit = moved.get(camera.image_id)
+        default_range = None if camera.range is None else camera.range * range_scale
         if edit is not None:
             fov = camera.fov_deg if edit.fov_deg is None else edit.fov_deg
-            range_ = camera.range if edit.range is None else edit.range
+            range_ = default_range if edit.range is None else edit.range
             poses[camera.image_id] = (edit.x, edit.y, edit.yaw_deg, fov, range_)
         elif camera.registered and camera.x is not None:
             poses[camera.image_id] = (camera.x, camera.y, camera.yaw_deg, camera.fov_deg,
-                                      camera.range)
+                                      default_range)
     return poses
 
 
@@ -102,28 +116,59 @@ def frustum_test(tested: np.ndarray, poses: Mapping[int, PlacedPose]) -> np.ndar
     return apart
 
 
-def _paper_rule(tested: np.ndarray, poses: Mapping[int, PlacedPose]) -> dict[str, np.ndarray]:
-    return {FRUSTUM: frustum_test(tested, poses)}
+@dataclass(frozen=True)
+class RuleInput:
+    """What a rule decides on: the tested pairs, every placed 2D pose, and the default rule's extras."""
+
+    tested: np.ndarray  # (P, 2) sorted pairs with a moved member, both members placed
+    poses: Mapping[int, PlacedPose]
+    scene: TopDownScene
+    moved: Mapping[int, CameraEdit]
+    tolerances: Tolerances
+    evidence: Evidence | None
 
 
-# The default rule runs the paper's test until its own match-based tests exist.
-RULES: dict[str, Callable[[np.ndarray, Mapping[int, PlacedPose]], dict[str, np.ndarray]]] = {
+def _paper_rule(rule_input: RuleInput) -> dict[str, np.ndarray]:
+    return {FRUSTUM: frustum_test(rule_input.tested, rule_input.poses)}
+
+
+def _default_rule(rule_input: RuleInput) -> dict[str, np.ndarray]:
+    """Match placement and relative rotation where the pair has evidence, else the frustum."""
+    tested, evidence = rule_input.tested, rule_input.evidence
+    if evidence is None:
+        return _paper_rule(rule_input)
+    flat = flat_matches(evidence, tested)
+    placement = place(rule_input.scene, rule_input.moved, evidence)
+    placed_out, judged, _ = placement_test(flat, placement, evidence, rule_input.tolerances)
+    rotated_out, _, _ = rotation_test(flat, placement, evidence, rule_input.tolerances, placed_out)
+    frustum_out = np.zeros(len(tested), dtype=bool)
+    frustum_out[~judged] = frustum_test(tested[~judged], rule_input.poses)
+    return {FRUSTUM: frustum_out, PLACEMENT: placed_out, ROTATION: rotated_out}
+
+
+RULES: dict[str, Callable[[RuleInput], dict[str, np.ndarray]]] = {
     "paper": _paper_rule,
-    "default": _paper_rule,
+    "default": _default_rule,
 }
 
 
-def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int]) -> PruneResult:
-    """Pairs (COLMAP image ids) the edit set's rule deletes, each with the tests that removed it."""
+def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int],
+                evidence: Evidence | None = None) -> PruneResult:
+    """Pairs (COLMAP image ids) the edit set's rule deletes, each with the tests that removed it.
+
+    Without evidence (see core.evidence) the default rule can only run the frustum test.
+    """
     rule = RULES.get(edits.rule)
     if rule is None:
         raise InvalidInput(f"unknown rule {edits.rule!r}; expected one of {sorted(RULES)}")
+    tolerances = resolve(edits.tolerances)
     moved = _check_edits(scene, edits)
     manual = _manual_pairs(scene, edits, pairs)
-    poses = placed_poses(scene, moved)
+    poses = placed_poses(scene, moved, tolerances.range_scale)
     tested = _tested_pairs(pairs, moved, poses)
     reasons: dict[PairKey, tuple[str, ...]] = {}
-    for test, removed in rule(tested, poses).items():
+    verdicts = rule(RuleInput(tested, poses, scene, moved, tolerances, evidence))
+    for test, removed in verdicts.items():
         _add_reason(reasons, zip(*tested[removed].T.tolist(), strict=True), test)
     _add_reason(reasons, dict.fromkeys(manual), MANUAL)
     return PruneResult(deleted=sorted(reasons), reasons=reasons)

@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import colmap_db, colmap_model, match_graph, pruning, remap, sfm, topdown
+from guided_sfm.core import colmap_db, colmap_model, evidence, match_graph, pruning, remap, sfm, topdown
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
+from guided_sfm.core.evidence import Evidence
 from guided_sfm.core.sfm import CancelToken, SfmOptions
 from guided_sfm.core.types import EditSet, PairKey, Progress, TopDownScene, no_progress
 
@@ -181,13 +182,22 @@ def verified_pairs(workspace: Path) -> dict[PairKey, int]:
 def preview(workspace: Path, edits: EditSet) -> PruneOutcome:
     """What pruning the workspace with these edits would delete; nothing is written."""
     pairs = verified_pairs(workspace)
-    result = pruning.prune_pairs(load_scene(workspace), edits, pairs)
+    result = pruning.prune_pairs(load_scene(workspace), edits, pairs, rule_evidence(workspace, edits, pairs))
     return PruneOutcome(
         deleted=result.deleted,
         reasons=result.reasons,
         components_before=match_graph.count_components(pairs),
         components_after=match_graph.count_components(pairs, result.deleted),
     )
+
+
+def rule_evidence(workspace: Path, edits: EditSet, pairs: dict[PairKey, int]) -> Evidence | None:
+    """The default rule's evidence for the pairs of the moved cameras (None for the paper's rule)."""
+    model_dir = Path(workspace) / SPARSE / "0"
+    if edits.rule != "default" or not edits.cameras or not model_dir.is_dir():
+        return None
+    touched = evidence.pairs_touching(pairs, {c.image_id for c in edits.cameras})
+    return evidence.gather(require(workspace), model_dir, touched)
 
 
 def prune(workspace: Path, edits: EditSet, new_workspace: Path) -> PruneOutcome:

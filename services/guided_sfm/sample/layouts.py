@@ -85,81 +85,115 @@ def _poster(scene: Scene, rng: np.random.Generator, size) -> int:
     return scene.add_texture(tx.poster(rng, int(size[0] * WALL_TPM), int(size[1] * WALL_TPM)))
 
 
-def walk(keys: list[tuple[float, float, float]], counts: list[int]) -> list[tuple[float, float, float]]:
-    """Sample (x, y, yaw) linearly between consecutive keyframes, counts[i] samples per segment."""
-    out = []
-    for (a, b), n in zip(zip(keys[:-1], keys[1:], strict=True), counts, strict=True):
+def walk(
+    keys: list[tuple[float, float, float]], counts: list[int], sways: list[float] | None = None
+) -> tuple[list[tuple[float, float, float]], list[float]]:
+    """Sample (x, y, yaw) linearly between consecutive keyframes, counts[i] samples per segment.
+
+    Also returns each sample's sway amplitude (deg): sways[i] on segment i (default 1), so a
+    turn can be walked steadily while the straight stretches sway.
+    """
+    sways = [1.0] * len(counts) if sways is None else sways
+    out, amplitude = [], []
+    for (a, b), n, sway in zip(zip(keys[:-1], keys[1:], strict=True), counts, sways, strict=True):
         for f in np.arange(n) / n:
             out.append(tuple(np.asarray(a) * (1 - f) + np.asarray(b) * f))
+            amplitude.append(sway)
     out.append(keys[-1])
-    return out
+    amplitude.append(sways[-1])
+    return out, amplitude
 
 
 def poses_along(
-    path, rng: np.random.Generator, pitch: float = -8.0, sway: float = 0.0, eye: float = EYE
+    path, rng: np.random.Generator, pitch: float = -8.0, sway=0.0, eye: float = EYE
 ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Hand-held poses along a path: small seeded jitter of position, height and angles."""
+    """Hand-held poses along a path: small seeded jitter of position, height and angles.
+
+    `sway` (deg) is one amplitude or one per pose.
+    """
+    sways = np.broadcast_to(np.asarray(sway, dtype=float), (len(path),))
     poses = []
     for i, (x, y, yaw) in enumerate(path):
         jitter = rng.normal(0, 1, 5)
         center = (x + 0.03 * jitter[0], y + 0.03 * jitter[1], eye + 0.03 * jitter[2])
-        yaw_i = yaw + sway * np.sin(i * 1.3) + 1.5 * jitter[3]
+        yaw_i = yaw + sways[i] * np.sin(i * 1.3) + 1.5 * jitter[3]
         poses.append(look(center, yaw_i, pitch + 1.0 * jitter[4]))
     return poses
 
 
 def murals(seed: int) -> Layout:
-    """A 26 m corridor walked out and back; one mural twice on the left, once on the right."""
+    """A 26 m corridor walked out and back past one mural hung twice on each side."""
     rng = np.random.default_rng([seed, 1])
     scene = Scene()
-    length, width, height = 26.0, 5.0, 3.0
-    room(scene, rng, length, width, height, bricks=(3, 7))
+    length, width, height = 26.0, 6.0, 3.0
+    room(scene, rng, length, width, height, bricks=(3,))
     size = (2.6, 1.7)
     art = scene.add_texture(tx.mural(rng, int(size[0] * WALL_TPM), int(size[1] * WALL_TPM)))
     for x in (5.5, 16.5):
         hang(scene, art, x, width, -90.0, size, 1.5, flat=True)
-    hang(scene, art, 15.5, 0.0, 90.0, size, 1.5, flat=True)
+    for x in (6.0, 17.0):
+        hang(scene, art, x, 0.0, 90.0, size, 1.5, flat=True)
+    # the end of the corridor, seen all through the turn: a unique painting, notices, a cabinet
+    end = (3.0, 1.5)
+    board = scene.add_texture(tx.mural(rng, int(end[0] * WALL_TPM), int(end[1] * WALL_TPM)))
+    scene.quads.append(wall_quad((length - 0.01, 3.6, 1.55), 180.0, *end, board, flat=True))
     cabinet = [scene.add_texture(tx.panel(rng, 240, 240)) for _ in range(2)]
-    scene.quads.extend(box_quads((length - 0.3, 1.2), (1.2, 0.6, 1.1), 180.0, *cabinet, flat=False))
-    for y in (2.6, 4.0):
-        scene.quads.append(
-            wall_quad((length - 0.01, y, 1.7), 180.0, 0.6, 0.85, _poster(scene, rng, (0.6, 0.85)))
-        )
+    scene.quads.extend(box_quads((length - 0.3, 1.0), (1.2, 0.6, 1.1), 180.0, *cabinet, flat=False))
+    for y in (0.8, 1.6, 5.4):
+        psize = (0.6, 0.85)
+        scene.quads.append(wall_quad((length - 0.01, y, 1.8), 180.0, *psize, _poster(scene, rng, psize)))
     for x, wall_y, facing in (
         (2.0, width, -90),
         (11.0, width, -90),
         (21.5, width, -90),
-        (12.0, 0.0, 90),
+        (24.2, width, -90),
+        (11.5, 0.0, 90),
         (19.5, 0.0, 90),
         (23.0, 0.0, 90),
+        (25.0, 0.0, 90),
     ):
         psize = (0.6, 0.85)
         hang(scene, _poster(scene, rng, psize), x, wall_y, facing, psize, 1.6)
-    # the turn faces the near end wall, so the way out and the way back share unique texture
-    keys = [(1.5, 2.0, 90.0), (21.0, 2.0, 90.0), (22.5, 2.3, 0.0), (22.0, 3.0, -90.0)]
-    path = walk([*keys, (12.5, 3.0, -90.0)], [23, 6, 6, 12])
-    return Layout(scene, VGA, poses_along(path, rng, pitch=-12.0, sway=12.0))
+    # out along y = 3.3 facing the left wall, back along y = 2.7 facing the right wall, so no
+    # view of the way out shares ground with one of the way back; the turn is walked steadily,
+    # 13 deg a step, facing the end wall from 3.5 m so the floor in front of it stays in view
+    keys = [(1.5, 3.3, 90.0), (21.0, 3.3, 90.0), (22.5, 3.0, 0.0), (21.0, 2.7, -90.0)]
+    path, sway = walk([*keys, (4.5, 2.7, -90.0)], [23, 7, 7, 19], [12.0, 0.0, 0.0, 12.0])
+    return Layout(scene, VGA, poses_along(path, rng, pitch=-12.0, sway=sway))
 
 
 def office(seed: int) -> Layout:
-    """A 14 x 7 m office: four identical desks under identical posters, walked past twice."""
+    """An 18 x 7 m office: four identical desks under identical posters, two along each side."""
     rng = np.random.default_rng([seed, 2])
     scene = Scene()
-    length, width, height = 14.0, 7.0, 2.8
+    length, width, height = 18.0, 7.0, 2.8
     room(scene, rng, length, width, height, panel=3.5, floor="tiles")
     top = scene.add_texture(tx.desk_top(rng, int(1.4 * WALL_TPM), int(0.7 * WALL_TPM), WALL_TPM))
     side = scene.add_texture(tx.panel(rng, int(1.4 * WALL_TPM), int(0.75 * WALL_TPM)))
     psize = (0.9, 1.2)
     art = _poster(scene, rng, psize)
-    for x in (2.0, 5.5, 9.0, 12.5):
-        scene.quads.extend(box_quads((x, width - 0.45), (1.4, 0.7, 0.75), -90.0, top, side))
-        hang(scene, art, x, width, -90.0, psize, 1.75, flat=True)
-    for x in (3.5, 7.0, 10.5):
+    # copies on one side are 9 m apart, so no two nearby views see different copies
+    for x, wall_y, facing in ((2.5, width, -90.0), (11.5, width, -90.0), (3.0, 0.0, 90.0), (12.0, 0.0, 90.0)):
+        inward = -0.45 if facing < 0 else 0.45
+        scene.quads.extend(box_quads((x, wall_y + inward), (1.4, 0.7, 0.75), facing, top, side))
+        hang(scene, art, x, wall_y, facing, psize, 1.75, flat=True)
+    for x, wall_y, facing in ((7.0, width, -90), (7.5, 0.0, 90), (15.5, width, -90), (16.0, 0.0, 90)):
         usize = (0.7, 1.0)
-        hang(scene, _poster(scene, rng, usize), x, 0.0, 90.0, usize, 1.6)
-    keys = [(1.0, 3.2, 80.0), (11.0, 3.2, 100.0), (12.0, 3.5, 0.0), (11.0, 3.8, -90.0)]
-    path = walk([*keys, (1.0, 3.8, -90.0)], [23, 5, 5, 14])
-    return Layout(scene, VGA, poses_along(path, rng, pitch=-14.0, sway=15.0))
+        hang(scene, _poster(scene, rng, usize), x, wall_y, facing, usize, 1.6)
+    # the far end, faced through the turn: a unique whiteboard, notices and a cupboard
+    board_size = (2.4, 1.2)
+    board = scene.add_texture(tx.mural(rng, int(board_size[0] * WALL_TPM), int(board_size[1] * WALL_TPM)))
+    scene.quads.append(wall_quad((length - 0.01, 3.0, 1.5), 180.0, *board_size, board, flat=True))
+    for y in (1.2, 4.6):
+        nsize = (0.6, 0.85)
+        scene.quads.append(wall_quad((length - 0.01, y, 1.6), 180.0, *nsize, _poster(scene, rng, nsize)))
+    cupboard = [scene.add_texture(tx.panel(rng, 240, 240)) for _ in range(2)]
+    scene.quads.extend(box_quads((length - 0.3, 5.6), (1.0, 0.6, 1.2), 180.0, *cupboard, flat=False))
+    # out along y = 3.8 facing the left desks, back along y = 3.2 facing the right ones; the turn
+    # is walked steadily, 13 deg a step, facing the end wall from 3 m
+    keys = [(1.0, 3.8, 90.0), (13.5, 3.8, 90.0), (15.0, 3.5, 0.0), (13.5, 3.2, -90.0)]
+    path, sway = walk([*keys, (1.5, 3.2, -90.0)], [17, 7, 7, 16], [8.0, 0.0, 0.0, 8.0])
+    return Layout(scene, VGA, poses_along(path, rng, pitch=-10.0, sway=sway))
 
 
 def tiny(seed: int) -> Layout:
@@ -171,7 +205,7 @@ def tiny(seed: int) -> Layout:
     art = scene.add_texture(tx.mural(rng, int(psize[0] * WALL_TPM), int(psize[1] * WALL_TPM)))
     for x in (1.5, 6.5):
         hang(scene, art, x, 3.0, -90.0, psize, 1.5, flat=True)
-    path = walk([(1.0, 0.8, 90.0), (7.0, 0.8, 90.0)], [11])
+    path, _ = walk([(1.0, 0.8, 90.0), (7.0, 0.8, 90.0)], [11])
     return Layout(scene, QVGA, poses_along(path, rng, pitch=-18.0, sway=8.0))
 
 

@@ -1,0 +1,138 @@
+"""Time the default rule: 300 cameras, each paired with its 30 nearest, real inlier counts, every
+camera moved (the worst case: every pair is tested). Prints the time of each test and the total.
+
+Match counts follow the rendered murals sample (median ~150 inliers, a long tail to ~800).
+Optionally also time gathering the evidence from a real workspace (models + database, read-only).
+Run: .venv/bin/python benchmarks/bench_rule.py [--runs N] [--workspace WS]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from guided_sfm.core import evidence as ev
+from guided_sfm.core import workspace
+from guided_sfm.core.match_placement import placement_test
+from guided_sfm.core.placement import place
+from guided_sfm.core.pruning import _tested_pairs, frustum_test, placed_poses, prune_pairs
+from guided_sfm.core.relative_rotation import rotation_test
+from guided_sfm.core.tolerances import Tolerances
+from guided_sfm.core.types import CameraEdit, EditSet
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' hand-made captures
+from tests.core.synthetic import Capture, in_view, look  # noqa: E402
+
+SPACING_M = 0.5  # between consecutive cameras along the walk
+TURNED_SHARE = 0.1  # cameras the user also turns by 90 deg (forces the per-pair two-view check)
+
+
+def walk_poses(count: int, rng: np.random.Generator) -> dict:
+    """Cameras along a rectangular loop, heading along it, +-30 deg of sway, eye height."""
+    side = count * SPACING_M / 4
+    poses = {}
+    for i in range(count):
+        s = i * SPACING_M
+        edge, along = int(s // side) % 4, s % side
+        corners = [(0, 0), (side, 0), (side, side), (0, side)]
+        heading = 90.0 * edge
+        x0, y0 = corners[edge]
+        center = (x0 + along * np.cos(np.radians(heading)), y0 + along * np.sin(np.radians(heading)), 1.5)
+        poses[i + 1] = look(center, heading + rng.uniform(-30, 30), rng.uniform(-10, 0))
+    return poses
+
+
+def synthetic_capture(count: int, neighbours: int, seed: int = 0):
+    """(scene, edits, pairs, evidence): each camera paired with its nearest along the walk."""
+    rng = np.random.default_rng(seed)
+    capture = Capture(walk_poses(count, rng))
+    for i in range(1, count + 1):
+        for j in range(i + 1, i + neighbours // 2 + 1):
+            j = (j - 1) % count + 1
+            wanted = int(np.clip(rng.lognormal(np.log(150), 0.8), 20, 800))
+            rotation, translation = capture.poses[i]
+            ahead = rng.uniform([-4, -2, 2], [4, 2, 10], size=(3 * wanted, 3))
+            seen = (ahead - translation) @ rotation  # world points in front of camera i
+            seen = seen[in_view(capture.poses[j], seen, 89.0)][:wanted]
+            if len(seen) >= 8:
+                capture.match(i, j, seen)
+    scene, evidence = capture.scene(), capture.evidence()
+    edits = []
+    for camera in scene.cameras:
+        turn = 90.0 if rng.random() < TURNED_SHARE else rng.choice([-10.0, 10.0])
+        angle = rng.uniform(0, 2 * np.pi)
+        edits.append(CameraEdit(camera.image_id, camera.x + 0.3 * np.cos(angle),
+                                camera.y + 0.3 * np.sin(angle), camera.yaw_deg + turn))
+    return scene, EditSet(edits, rule="default"), capture.pairs(), evidence
+
+
+def median_time(function, runs: int, *args):
+    """Median (wall seconds, CPU seconds) over runs; CPU time shows the cost on a shared machine."""
+    walls, cpus, result = [], [], None
+    for _ in range(runs):
+        start, start_cpu = time.perf_counter(), time.process_time()
+        result = function(*args)
+        walls.append(time.perf_counter() - start)
+        cpus.append(time.process_time() - start_cpu)
+    return (statistics.median(walls), statistics.median(cpus)), result
+
+
+def bench_synthetic(count: int, neighbours: int, runs: int) -> None:
+    scene, edits, pairs, evidence = synthetic_capture(count, neighbours, seed=0)
+    matches = sum(len(m) for m in evidence.matches.values())
+    print(f"{count} cameras, {len(pairs)} pairs, {matches} inlier matches, all cameras moved")
+    moved = {e.image_id: e for e in edits.cameras}
+    tolerances = Tolerances()
+    poses = placed_poses(scene, moved)
+    tested = _tested_pairs(pairs, moved, poses)
+    steps = {
+        "flat matches": lambda: ev.flat_matches(evidence, tested),
+        "placement (3D moves)": lambda: place(scene, moved, evidence),
+    }
+    flat, placement = ev.flat_matches(evidence, tested), place(scene, moved, evidence)
+    steps |= {
+        "frustum test": lambda: frustum_test(tested, poses),
+        "match-placement test": lambda: placement_test(flat, placement, evidence, tolerances),
+        "relative-rotation test": lambda: rotation_test(flat, placement, evidence, tolerances),
+        "whole rule (prune_pairs)": lambda: prune_pairs(scene, edits, pairs, evidence),
+    }
+    print(f"  {'step':<26} {'wall s':>8} {'cpu s':>8}")
+    for name, step in steps.items():
+        (wall, cpu), _ = median_time(step, runs)
+        print(f"  {name:<26} {wall:8.3f} {cpu:8.3f}")
+    result = prune_pairs(scene, edits, pairs, evidence)
+    print(f"  deleted {len(result.deleted)} pairs; by test {result.removed_by_test}")
+
+
+def bench_gather(ws: Path, runs: int) -> None:
+    pairs = workspace.verified_pairs(ws)
+    scene = workspace.load_scene(ws)
+    everyone = EditSet([], rule="default")
+    ids = [c.image_id for c in scene.cameras if c.registered]
+    (seconds, cpu), evidence = median_time(
+        lambda: ev.gather(workspace.require(ws), ws / "sparse" / "0",
+                          ev.pairs_touching(pairs, ids)), runs)
+    print(f"gather evidence from {ws}: {len(evidence.rows)} images, {len(evidence.matches)} pairs, "
+          f"{len(evidence.rays)} keypoints: {seconds:.3f} s wall, {cpu:.3f} s cpu")
+    del everyone
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=3, help="runs per timing (median reported)")
+    parser.add_argument("--cameras", type=int, default=300)
+    parser.add_argument("--neighbours", type=int, default=30)
+    parser.add_argument("--workspace", type=Path, default=None)
+    args = parser.parse_args()
+    bench_synthetic(args.cameras, args.neighbours, args.runs)
+    if args.workspace:
+        bench_gather(args.workspace, args.runs)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,118 @@
+"""What the default rule tests a placement against, read once per preview (models and database
+read-only): per model image its pose, keypoint rays and 3D points; per pair its inlier matches."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pycolmap
+
+from guided_sfm.core import colmap_db, model_files
+from guided_sfm.core.types import PairKey
+
+# A median angle or a 9x9 moment matrix settles long before a pair's hundreds of matches run out;
+# thinning bounds a preview's cost by the number of pairs.
+MAX_MATCHES_PER_PAIR = 96
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """Rows are images of the largest model; keypoint arrays are concatenated row after row."""
+
+    rows: dict[int, int]  # image id -> row
+    rotations: np.ndarray  # (I, 3, 3) cam_from_world
+    translations: np.ndarray  # (I, 3) cam_from_world
+    offsets: np.ndarray  # (I + 1,) first keypoint of each row
+    rays: np.ndarray  # (K, 3) unit viewing rays in the camera frame (undistorted)
+    points: np.ndarray  # (K, 3) the keypoint's 3D point (model coordinates), NaN where none
+    matches: Mapping[PairKey, np.ndarray]  # (M, 2) inlier keypoint indices, pair-key order
+
+
+@dataclass(frozen=True)
+class FlatMatches:
+    """The inlier matches of P tested pairs, concatenated pair after pair (at most
+    MAX_MATCHES_PER_PAIR each, evenly spread over the pair's list)."""
+
+    pair: np.ndarray  # (M,) index of the tested pair each match belongs to, ascending
+    keypoints: np.ndarray  # (M, 2) global keypoint index (into rays/points) of each side
+    rows: np.ndarray  # (P, 2) evidence row of each pair member, -1 when not in the model
+    counts: np.ndarray  # (P,) matches kept per pair (0 when a member is not in the model)
+    inliers: np.ndarray  # (P,) the pair's verified inliers, before thinning
+
+
+def _thinned(block: np.ndarray) -> np.ndarray:
+    if len(block) <= MAX_MATCHES_PER_PAIR:
+        return block
+    return block[np.linspace(0, len(block) - 1, MAX_MATCHES_PER_PAIR).astype(np.int64)]
+
+
+def flat_matches(evidence: Evidence, tested: np.ndarray) -> FlatMatches:
+    """Gather the tested pairs' matches as flat arrays the tests can vectorise over."""
+    lookup = np.full(max(evidence.rows, default=0) + 2, -1, dtype=np.int64)
+    lookup[list(evidence.rows)] = list(evidence.rows.values())
+    rows = lookup[np.minimum(tested, len(lookup) - 1)].reshape(-1, 2)
+    empty = np.zeros((0, 2), dtype=np.int64)
+    full = [evidence.matches.get((int(a), int(b)), empty) if ra >= 0 and rb >= 0 else empty
+            for (a, b), (ra, rb) in zip(tested.tolist(), rows.tolist(), strict=True)]
+    blocks = [_thinned(block) for block in full]
+    counts = np.array([len(block) for block in blocks], dtype=np.int64)
+    local = np.concatenate([empty, *blocks])
+    pair = np.repeat(np.arange(len(tested)), counts)
+    keypoints = local + evidence.offsets[rows[pair]] if len(local) else local
+    return FlatMatches(pair, keypoints, rows, counts,
+                       np.array([len(block) for block in full], dtype=np.int64))
+
+
+def _rays(camera: pycolmap.Camera, xy: np.ndarray) -> np.ndarray:
+    if len(xy) == 0:
+        return np.zeros((0, 3))
+    rays = np.column_stack([camera.cam_from_img(xy), np.ones(len(xy))])
+    return rays / np.linalg.norm(rays, axis=1, keepdims=True)
+
+
+def _points_of(point_ids: np.ndarray, ids: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+    out = np.full((len(point_ids), 3), np.nan)
+    if len(ids) == 0:
+        return out
+    rows = np.minimum(np.searchsorted(ids, point_ids), len(ids) - 1)
+    found = ids[rows] == point_ids  # COLMAP's "no point" id matches no stored point
+    out[found] = xyz[rows[found]]
+    return out
+
+
+def pairs_touching(pairs: Iterable[PairKey], image_ids: Iterable[int]) -> list[PairKey]:
+    """The pairs with at least one member among image_ids."""
+    ids = set(image_ids)
+    return [pair for pair in pairs if pair[0] in ids or pair[1] in ids]
+
+
+def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey]) -> Evidence:
+    """Evidence for these pairs from the largest model at model_dir and the matching database."""
+    pairs = list(pairs)
+    model = pycolmap.Reconstruction(model_dir)
+    wanted = {i for pair in pairs for i in pair}
+    image_ids = sorted(i for i in wanted if model.exists_image(i) and model.image(i).has_pose)
+    observations = model_files.read_observations(model_dir, image_ids)
+    point_ids, xyz = model_files.read_points(model_dir)
+    rotations, translations, rays, points = [], [], [], []
+    for image_id in image_ids:
+        image = model.image(image_id)
+        xy, observed = observations[image_id]
+        cam_from_world = image.cam_from_world()
+        rotations.append(cam_from_world.rotation.matrix())
+        translations.append(np.asarray(cam_from_world.translation, dtype=float))
+        rays.append(_rays(model.cameras[image.camera_id], xy))
+        points.append(_points_of(observed, point_ids, xyz))
+    counts = [len(r) for r in rays]
+    return Evidence(
+        rows={image_id: row for row, image_id in enumerate(image_ids)},
+        rotations=np.array(rotations).reshape(-1, 3, 3),
+        translations=np.array(translations).reshape(-1, 3),
+        offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        rays=np.concatenate([np.zeros((0, 3)), *rays]),
+        points=np.concatenate([np.zeros((0, 3)), *points]),
+        matches=colmap_db.inlier_matches_of(database, pairs),
+    )

@@ -1,0 +1,191 @@
+"""The default rule on hand-made geometry: carried points, orbits, twins, unpointed cameras,
+planar and pure-rotation pairs, and its tolerances."""
+
+import numpy as np
+import pytest
+
+from guided_sfm.core.edits import parse_edits
+from guided_sfm.core.errors import InvalidInput
+from guided_sfm.core.placement import ground_moves
+from guided_sfm.core.pruning import prune_pairs
+from guided_sfm.core.tolerances import Tolerances, resolve
+from guided_sfm.core.types import GroundFrame
+
+from .synthetic import Capture, ground_motion, in_view, look_at, scatter
+
+EYE = 1.5
+
+
+def test_points_are_carried_rigidly_with_a_2d_move():
+    frame = GroundFrame(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
+                        np.array([0, 0, 1.0]))
+    center = np.array([[1.0, 2.0, EYE]])
+    rotation, translation = ground_moves(frame, frame.up, center, np.array([0.0]),
+                                         np.array([[4.0, 6.0, 90.0]]))
+    ahead = np.array([3.0, 2.0, 0.7])  # 2 m in front of the camera, lower down
+    assert np.allclose(rotation[0] @ center[0] + translation[0], [4.0, 6.0, EYE])
+    assert np.allclose(rotation[0] @ ahead + translation[0], [4.0, 8.0, 0.7])
+
+
+def test_a_tilted_frame_still_keeps_the_height_along_gravity():
+    tilt = np.radians(20.0)  # the fitted ground plane leans 20 deg about y
+    frame = GroundFrame(np.zeros(3), np.array([np.cos(tilt), 0, np.sin(tilt)]),
+                        np.array([0, 1.0, 0]), np.array([-np.sin(tilt), 0, np.cos(tilt)]))
+    center = np.array([[0.0, 0.0, EYE]])
+    start = frame.to_2d(center)[0]
+    rotation, translation = ground_moves(frame, np.array([0, 0, 1.0]), center, np.array([0.0]),
+                                         np.array([[start[0] + 3.0, start[1], 0.0]]))
+    moved = rotation[0] @ center[0] + translation[0]
+    assert moved[2] == pytest.approx(EYE)
+    assert frame.to_2d(moved[None])[0] == pytest.approx(start + [3.0, 0.0])
+
+
+def _face_points(rng, angle_deg: float, half: float = 0.6, count: int = 120) -> np.ndarray:
+    """Points on the side of a pillar (centred at the origin) that faces angle_deg."""
+    normal = np.radians(90.0 * np.round(angle_deg / 90.0))
+    across = rng.uniform(-half, half, count)
+    heights = rng.uniform(0.3, 2.3, count)
+    return np.column_stack([half * np.cos(normal) - across * np.sin(normal),
+                            half * np.sin(normal) + across * np.cos(normal), heights])
+
+
+def _orbit(rng) -> tuple[Capture, set, set]:
+    """Cameras every 15 deg around a pillar with one pattern on each side; the second quarter was
+    folded onto the first (a -90 deg turn about the pillar)."""
+    angles = {i: 15.0 * i for i in range(13)}  # 0 .. 180 deg
+    poses = {i: look_at(2.6 * np.array([np.cos(np.radians(a)), np.sin(np.radians(a)), 0]) + [0, 0, EYE],
+                        (0.0, 0.0)) for i, a in angles.items()}
+    capture = Capture(poses, cluster={i for i, a in angles.items() if 90 <= a < 180},
+                      motion=ground_motion(-90.0, (0, 0, 0)))
+    turn = ground_motion(-90.0, (0, 0, 0))[0]
+    true_pairs, false_pairs = set(), set()
+    for i in angles:
+        for j in (i + 1, i + 2):
+            if j in angles:  # neighbours share the side between them
+                seen = _face_points(rng, (angles[i] + angles[j]) / 2)
+                capture.match(i, j, seen[in_view(poses[i], seen) & in_view(poses[j], seen)])
+                true_pairs.add((i, j))
+        if i in capture.cluster:  # the look-alike side a quarter turn back
+            seen = _face_points(rng, angles[i])
+            capture.match(i, i - 6, seen, seen @ turn.T)
+            false_pairs.add((i - 6, i))
+    return capture, true_pairs, false_pairs
+
+
+def test_orbit_false_pairs_fall_to_the_rotation_test():
+    capture, true_pairs, false_pairs = _orbit(np.random.default_rng(0))
+    edits = capture.placement(capture.cluster, turn_deg=8.0)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    assert set(result.deleted) == false_pairs
+    assert all("rotation" in result.reasons[p] for p in false_pairs)
+    # the triangles of cameras a quarter turn apart both reach the pillar: the paper's rule keeps them
+    paper = capture.placement(capture.cluster, rule="paper", turn_deg=8.0)
+    assert not set(prune_pairs(capture.scene(range_=2.6), paper, capture.pairs()).deleted) & false_pairs
+    assert true_pairs.isdisjoint(result.deleted)
+
+
+def _twins(rng) -> tuple[Capture, set, set]:
+    """Two identical boxes 1.6 m apart; the cameras at the right one were folded onto the left."""
+    twins = {0: np.array([-0.8, 0.0, 0.0]), 1: np.array([0.8, 0.0, 0.0])}
+    poses, looks_at = {}, {}
+    for i in range(10):
+        twin = i // 5
+        offset = np.array([(i % 5 - 2) * 0.35, -1.5, EYE])
+        poses[i], looks_at[i] = look_at(twins[twin] + offset, twins[twin][:2]), twin
+    shift = twins[0] - twins[1]
+    capture = Capture(poses, cluster={5, 6, 7, 8, 9}, motion=ground_motion(0.0, shift))
+    true_pairs, false_pairs = set(), set()
+    for i in range(10):
+        for j in range(i + 1, 10):
+            box = twins[looks_at[i]]
+            seen = scatter(rng, 150, box - [0.5, 0.4, 0.0], box + [0.5, -0.3, 1.0])
+            if looks_at[i] == looks_at[j]:
+                capture.match(i, j, seen)
+                true_pairs.add((i, j))
+            elif abs(i % 5 - j % 5) <= 1:  # the same side of the other box looks the same
+                capture.match(i, j, seen, seen + (twins[1] - twins[0]))
+                false_pairs.add((i, j))
+    return capture, true_pairs, false_pairs
+
+
+def test_twin_objects_false_pairs_fall_to_the_placement_test():
+    capture, true_pairs, false_pairs = _twins(np.random.default_rng(1))
+    edits = capture.placement(capture.cluster, shift=0.3, turn_deg=-10.0)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    assert set(result.deleted) == false_pairs
+    assert all("placement" in result.reasons[p] for p in false_pairs)
+    paper = capture.placement(capture.cluster, rule="paper", shift=0.3, turn_deg=-10.0)
+    assert set(prune_pairs(capture.scene(), paper, capture.pairs()).deleted).isdisjoint(false_pairs)
+
+
+def test_a_camera_without_3d_points_takes_the_frustum_test_only():
+    capture, _, _ = _twins(np.random.default_rng(2))
+    capture.unpointed = {5, 6, 7, 8, 9} | set(range(5))
+    far = capture.placement({7}, shift=30.0)  # beyond every frustum
+    result = prune_pairs(capture.scene(), far, capture.pairs(), capture.evidence())
+    touching = {p for p in capture.pairs() if 7 in p}
+    assert set(result.deleted) == touching
+    assert {result.reasons[p] for p in touching} == {("frustum",)}
+
+
+def _rotation_pair(rng, translation, planar: bool, noise: float = 1e-3) -> Capture:
+    poses = {1: look_at((0.0, 0.0, EYE), (0.0, 5.0))}
+    rotation, _ = look_at((0.0, 0.0, EYE), (np.sin(np.radians(25.0)) * 5, 5.0))
+    center = np.array([*translation, EYE])
+    poses[2] = (rotation, -rotation @ center)
+    depth = (5.0, 5.0) if planar else (3.0, 9.0)
+    seen = scatter(rng, 200, (-2.0, depth[0], 0.3), (2.0, depth[1], 2.7))
+    seen = seen[in_view(poses[1], seen) & in_view(poses[2], seen)]
+    capture = Capture(poses)
+    capture.match(1, 2, seen)
+    jitter = rng.normal(0.0, noise, (len(seen), 3))
+    evidence = capture.evidence()
+    rays = evidence.rays + np.concatenate([jitter, -jitter])
+    object.__setattr__(evidence, "rays", rays / np.linalg.norm(rays, axis=1, keepdims=True))
+    capture.evidence = lambda: evidence
+    return capture
+
+
+@pytest.mark.parametrize("translation,planar", [((0.0, 0.0), True), ((0.0, 0.0), False),
+                                                ((0.6, 0.1), True), ((0.02, 0.0), True)])
+def test_planar_and_pure_rotation_pairs_give_no_false_rotation_verdict(translation, planar):
+    capture = _rotation_pair(np.random.default_rng(3), translation, planar)
+    for turn in (-9.0, 9.0):
+        edits = capture.placement({2}, shift=0.2, turn_deg=turn, placement_deg=179.0)
+        assert prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence()).deleted == []
+
+
+def test_a_rotation_far_from_the_placement_is_cut():
+    capture = _rotation_pair(np.random.default_rng(4), (0.6, 0.1), planar=False)
+    edits = capture.placement({2}, turn_deg=60.0, placement_deg=179.0)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    assert result.reasons == {(1, 2): ("rotation",)}
+
+
+@pytest.mark.parametrize("name,value,message", [
+    ("placement_deg", 0.0, "placement_deg must be a finite number > 0"),
+    ("rotation_deg", -5.0, "rotation_deg must be a finite number > 0"),
+    ("epipolar_ratio", float("nan"), "epipolar_ratio must be a finite number > 0"),
+    ("rotation_deg", 200.0, "rotation_deg must be an angle below 180"),
+    ("range_scale", True, "range_scale must be a finite number > 0"),
+    ("magic_deg", 3.0, "unknown tolerance 'magic_deg'"),
+])
+def test_invalid_tolerances_name_the_problem(name, value, message):
+    with pytest.raises(InvalidInput, match=message):
+        resolve({name: value})
+    capture, _, _ = _twins(np.random.default_rng(5))
+    edits = capture.placement({5}, **{name: value})
+    with pytest.raises(InvalidInput, match=message):
+        prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+
+
+def test_an_edit_set_with_a_bad_tolerance_is_refused_when_parsed():
+    body = {"cameras": [], "rule": "default", "tolerances": {"two_view_deg": -1}}
+    with pytest.raises(InvalidInput, match="two_view_deg must be a finite number > 0"):
+        parse_edits(body, {"a.jpg": 1})
+
+
+def test_tolerance_overrides_merge_over_the_defaults():
+    assert resolve({}) == Tolerances()
+    assert resolve({"placement_deg": 30}).placement_deg == 30.0
+    assert resolve({"placement_deg": 30}).rotation_deg == Tolerances().rotation_deg
