@@ -2,6 +2,7 @@
 PYTHON ?= python3
 VENV ?= .venv
 BIN = $(VENV)/bin
+POSTGRES_TEST_URL ?= postgresql+psycopg://postgres@127.0.0.1:5432/postgres
 
 .PHONY: install run demo test lint bench
 
@@ -14,16 +15,23 @@ $(BIN)/.installed: pyproject.toml
 install: $(BIN)/.installed
 
 run: install
-	$(BIN)/guided-sfm demo
+	$(BIN)/guided-sfm serve --sample
 
 demo: install
 	$(BIN)/guided-sfm demo
 
+# Everything on the embedded default (SQLite, filesystem broker; Redis and Chromium tests run
+# where those exist), then the database-backed tests again on Postgres when it answers.
 test: install
 	$(BIN)/python -m pytest
+	@if $(BIN)/python -c "import psycopg; psycopg.connect('host=127.0.0.1 user=postgres dbname=postgres', connect_timeout=3).close()" 2>/dev/null; then \
+		echo "--- again on Postgres ---"; \
+		GUIDED_SFM_TEST_DATABASE_URL=$(POSTGRES_TEST_URL) $(BIN)/python -m pytest tests/api tests/worker tests/test_migrations.py -m "not slow and not browser"; \
+	else echo "--- Postgres not reachable on 127.0.0.1:5432: its pass is skipped ---"; fi
 
 lint: install
 	$(BIN)/ruff check services worker tests benchmarks migrations
 
 bench: install
 	$(BIN)/python benchmarks/bench_pruning.py
+	$(BIN)/python benchmarks/bench_rule.py

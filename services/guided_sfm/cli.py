@@ -216,10 +216,8 @@ def _add(sub, name: str, func: Callable, help_: str, arguments: list[tuple]) -> 
 
 
 def _register_service(sub) -> None:
-    try:
-        from guided_sfm import service_cli
-    except ImportError:  # the service layer is optional for the engine's commands
-        return
+    from guided_sfm import service_cli
+
     service_cli.register(sub)
 
 

@@ -50,7 +50,7 @@ class StageClock:
 
 
 def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1,
-             rule: str = "paper", out_dir: Path | None = None,
+             rule: str = "default", out_dir: Path | None = None,
              options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
              cold: bool = False, tolerances: dict[str, float] | None = None,
              reuse: bool = False) -> dict:

@@ -1,0 +1,140 @@
+// Entry point: hash routes (#/, #/p/ID, #/p/ID/v/VID), sign-in, the project list, notices.
+import { ApiError, get, post, session, setUnauthorizedHandler, signIn, signUp } from "./api.js";
+import { JobStatus } from "./jobs.js";
+import { ProjectPage } from "./project.js";
+
+const $ = (id) => document.getElementById(id);
+const jobStatus = new JobStatus($("status"));
+let page = null;
+
+function notify(text, kind = "info") {
+  const box = $("notice");
+  box.textContent = text;
+  box.dataset.kind = kind;
+  box.hidden = false;
+  clearTimeout(notify.timer);
+  if (kind === "info") notify.timer = setTimeout(() => { box.hidden = true; }, 8000);
+}
+
+function show(viewId) {
+  for (const id of ["view-auth", "view-projects", "view-project"]) $(id).hidden = id !== viewId;
+  $("user-name").textContent = session.username ? `Signed in as ${session.username}` : "";
+  $("sign-out").hidden = !session.token;
+}
+
+function crumbs(items) {
+  $("crumbs").replaceChildren(...items.map(([text, href]) => {
+    const a = document.createElement(href ? "a" : "span");
+    a.textContent = text;
+    if (href) a.href = href;
+    return a;
+  }));
+}
+
+async function route() {
+  page?.close();
+  page = null;
+  if (!session.token) {
+    crumbs([]);
+    show("view-auth");
+    return;
+  }
+  const match = /^#\/p\/(\d+)(?:\/v\/(\d+))?/.exec(location.hash);
+  if (!match) return showProjects();
+  show("view-project");
+  const current = new ProjectPage($("view-project"), { jobStatus, notify, username: session.username });
+  page = current;
+  try {
+    await current.open(Number(match[1]), match[2] ? Number(match[2]) : null);
+    const { project, version, readOnly } = current.store;
+    crumbs([["Projects", "#/"], [project.name, `#/p/${project.id}`],
+      [version ? `v${version.id}${readOnly ? " (read-only)" : ""}` : "no version yet"]]);
+    document.body.dataset.ready = `${project.id}/${version?.id ?? ""}`;
+  } catch (error) {
+    if (page === current) notify(`Could not open the project: ${error.message}`, "error");
+  }
+}
+
+async function showProjects() {
+  crumbs([["Projects"]]);
+  show("view-projects");
+  const list = $("project-list");
+  try {
+    const projects = (await get("/projects")) ?? [];
+    list.replaceChildren(...projects.map((p) => {
+      const li = document.createElement("li");
+      const a = document.createElement("a");
+      a.href = `#/p/${p.id}`;
+      a.textContent = p.name;
+      const meta = document.createElement("span");
+      meta.className = "hint";
+      const head = p.head_version_id ? `head v${p.head_version_id}` : "no version yet";
+      meta.textContent = p.description ? `${p.description} · ${head}` : head;
+      li.append(a, meta);
+      return li;
+    }));
+    if (!projects.length) list.textContent = "No projects yet: create one below.";
+    document.body.dataset.ready = "projects";
+  } catch (error) {
+    notify(`Could not list the projects: ${error.message}`, "error");
+  }
+}
+
+$("sign-in-form").addEventListener("submit", async (e) => {
+  e.preventDefault();
+  const data = new FormData(e.target);
+  try {
+    await signIn(String(data.get("username")), String(data.get("password")));
+    e.target.reset();
+    route();
+  } catch (error) {
+    notify(`Sign-in failed: ${error.message}`, "error");
+  }
+});
+
+$("sign-up").addEventListener("click", async () => {
+  const form = $("sign-in-form");
+  if (!form.reportValidity()) return;
+  const data = new FormData(form);
+  const [username, password] = [String(data.get("username")), String(data.get("password"))];
+  try {
+    await signUp(username, password);
+    await signIn(username, password);
+    form.reset();
+    notify(`Welcome, ${username}.`);
+    route();
+  } catch (error) {
+    notify(`Sign-up failed: ${error.message}`, "error");
+  }
+});
+
+$("sign-out").addEventListener("click", () => {
+  session.clear();
+  location.hash = "#/";
+  route();
+});
+
+$("new-project-form").addEventListener("submit", async (e) => {
+  e.preventDefault();
+  const data = new FormData(e.target);
+  const body = { name: String(data.get("name")) };
+  if (data.get("description")) body.description = String(data.get("description"));
+  try {
+    const project = await post("/projects", body);
+    e.target.reset();
+    location.hash = `#/p/${project.id}`;
+  } catch (error) {
+    notify(`Could not create the project: ${error.message}`, "error");
+  }
+});
+
+setUnauthorizedHandler((error) => {
+  if (!(error instanceof ApiError) || !session.token) return;
+  session.clear();
+  notify("Your session ended; please sign in again.", "warning");
+  route();
+});
+
+window.addEventListener("hashchange", route);
+window.addEventListener("gsfm:reopen", route);
+route();

@@ -1,0 +1,104 @@
+// Toolbar buttons, the selection panel (FoV and range sliders) and the page's keyboard shortcuts.
+
+const FORM_FIELDS = "input, textarea, select, [contenteditable]";
+
+export function bindControls(root, { store, draft, editor, view, selection, page }, signal) {
+  const $ = (id) => root.querySelector(`#${id}`);
+  const on = (id, handler) => $(id).addEventListener("click", handler, { signal });
+  const fov = $("fov-slider");
+  const range = $("range-slider");
+  range.min = String(editor.medianRange * 0.1);
+  range.max = String(editor.medianRange * 4);
+  range.step = String(editor.medianRange / 200);
+
+  const toggle = (id, key) => {
+    store[key] = !store[key];
+    $(id).setAttribute("aria-pressed", String(store[key]));
+  };
+  const showPreview = async () => {
+    $("preview-panel").open = true;
+    await page.sync?.flush();
+    $("cut-counter").scrollIntoView({ block: "nearest" });
+    $("preview-panel").querySelector("summary").focus();
+  };
+  const actions = {
+    undo: () => editor.undo(),
+    redo: () => editor.redo(),
+    "select-all": () => selection.all(),
+    "show-matching": () => { toggle("show-matching", "showMatching"); page.refresh(); },
+    "show-frusta": () => {
+      view.showFrusta = !view.showFrusta;
+      $("show-frusta").setAttribute("aria-pressed", String(view.showFrusta));
+      view.requestDraw();
+    },
+    "fit-view": () => view.fit(),
+    "preview-button": showPreview,
+    "apply-button": () => page.apply(),
+    "flag-button": () => editor.toggleFlag(),
+    "place-button": () => editor.placeSelectionAtCentre(),
+    "reset-button": () => editor.resetSelected(),
+  };
+  for (const [id, handler] of Object.entries(actions)) on(id, handler);
+
+  fov.addEventListener("input", () => editor.setFrustum({ fov_deg: Number(fov.value) }, "fov"), { signal });
+  range.addEventListener("input", () => editor.setFrustum({ range: Number(range.value) }, "range"), { signal });
+  $("rule-select").addEventListener("change", (e) => {
+    if (!editor.canEdit()) return;
+    draft.change((d) => { d.rule = e.target.value; });
+  }, { signal });
+
+  document.addEventListener("keydown", (e) => {
+    if (e.target.closest?.(FORM_FIELDS)) return;
+    const handled = e.altKey ? panKey(e) : editor.handleKey(e) || viewKey(e);
+    if (handled) e.preventDefault();
+  }, { signal });
+
+  // Alt+arrows pan the view by a tenth of its size.
+  function panKey(e) {
+    const arrows = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, 1], ArrowDown: [0, -1] };
+    if (!arrows[e.key]) return false;
+    const span = (0.1 * view.canvas.width) / view.view.scale;
+    view.panBy(-arrows[e.key][0] * span, -arrows[e.key][1] * span);
+    return true;
+  }
+
+  function viewKey(e) {
+    if (e.ctrlKey || e.metaKey) return false;
+    const rect = view.canvas.getBoundingClientRect();
+    const centre = [rect.left + rect.width / 2, rect.top + rect.height / 2];
+    const keys = {
+      m: actions["show-matching"], t: actions["show-frusta"], d: showPreview, 0: () => view.fit(),
+      "+": () => view.zoomAt(...centre, 1.25), "=": () => view.zoomAt(...centre, 1.25),
+      "-": () => view.zoomAt(...centre, 0.8),
+    };
+    const handler = keys[e.key.toLowerCase()];
+    if (!handler) return false;
+    handler();
+    return true;
+  }
+
+  return {
+    refresh() {
+      const editable = store.editable;
+      const poses = editor.selectedPoses();
+      const n = store.selection.size;
+      $("selection-summary").textContent = n
+        ? `${n} selected, ${poses.length} placed${n > poses.length ? ` (${n - poses.length} to place)` : ""}.`
+        : "Nothing selected.";
+      for (const id of ["undo", "redo", "preview-button", "apply-button", "flag-button", "place-button",
+        "reset-button", "delete-matching", "keep-matching", "rule-select"]) $(id).disabled = !editable;
+      $("undo").disabled ||= !draft.undoStack.length;
+      $("redo").disabled ||= !draft.redoStack.length;
+      $("reconstruct-button").disabled = store.locked;
+      fov.disabled = range.disabled = !editable || !poses.length;
+      $("rule-select").value = draft.rule;
+      if (poses.length) {
+        fov.value = String(poses[0].fov_deg ?? 60);
+        range.value = String(poses[0].range ?? editor.medianRange);
+        $("fov-value").textContent = `${Math.round(poses[0].fov_deg ?? 0)}°`;
+        $("range-value").textContent = `${(poses[0].range ?? 0).toPrecision(3)}`;
+      }
+      root.dataset.selectionCount = String(n);
+    },
+  };
+}

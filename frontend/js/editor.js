@@ -1,0 +1,127 @@
+// Editing the draft: arrow keys translate the selection, q/r rotate it about its centroid (rigidly),
+// mouse drag moves it, sliders set FoV and range, unregistered images are dropped into the scene.
+import { median, rigidMove } from "./geometry.js";
+
+const STEP_OF_RANGE = 0.05; // one arrow press moves this share of the median camera range
+const SHIFT = 5; // shift multiplies steps
+const ROTATE_DEG = 2;
+
+export class Editor {
+  constructor(store, draft, view, selection, notify) {
+    Object.assign(this, { store, draft, view, selection, notify });
+    const ranges = store.cameras.map((c) => c.range).filter((r) => r > 0);
+    const fovs = store.cameras.map((c) => c.fov_deg).filter((f) => f > 0);
+    this.medianRange = median(ranges) ?? 1;
+    this.medianFov = median(fovs) ?? 60;
+    this.step = this.medianRange * STEP_OF_RANGE;
+    view.canvas.dataset.step = String(this.step);
+    view.canvas.dataset.rotateStep = String(ROTATE_DEG);
+    view.poseOf = (cam) => this.poseOf(cam);
+  }
+
+  // The pose on screen: the draft's when moved, else the model's (null when not placed).
+  poseOf(cam) {
+    const edit = this.draft.cameras.get(cam.id);
+    if (!edit) return cam.x === null ? null : cam;
+    return { ...cam, ...edit, fov_deg: edit.fov_deg ?? cam.fov_deg ?? this.medianFov,
+      range: edit.range ?? cam.range ?? this.medianRange };
+  }
+
+  canEdit() {
+    if (this.store.editable) return true;
+    const why = this.store.readOnly ? "this version is open read-only" : "a job of this project is running";
+    this.notify(`Editing is locked: ${why}.`, "warning");
+    return false;
+  }
+
+  selectedPoses() {
+    const out = [];
+    for (const id of this.store.selection) {
+      const pose = this.poseOf(this.store.byId.get(id));
+      if (pose) out.push(pose);
+    }
+    return out;
+  }
+
+  // Translate by (dx, dy) and rotate by deg about the centroid, all selected cameras as one body.
+  move(dx, dy, deg, mergeKey) {
+    if (!this.canEdit()) return;
+    const poses = this.selectedPoses();
+    if (!poses.length) {
+      this.notify("Select placed cameras first (unregistered images need dropping into the scene).");
+      return;
+    }
+    this.draft.change((d) => {
+      for (const p of rigidMove(poses, dx, dy, deg)) d.cameras.set(p.id, pick(p));
+    }, mergeKey);
+  }
+
+  // Set fov_deg and/or range on every selected, placed camera.
+  setFrustum(values, mergeKey) {
+    if (!this.canEdit()) return;
+    const poses = this.selectedPoses();
+    if (!poses.length) return;
+    this.draft.change((d) => {
+      for (const p of poses) d.cameras.set(p.id, pick({ ...p, ...values }));
+    }, mergeKey);
+  }
+
+  // Place images (unregistered ones in particular) at a world point, spread along x.
+  place(ids, x, y) {
+    if (!this.canEdit() || !ids.length) return;
+    this.draft.change((d) => {
+      ids.forEach((id, i) => {
+        const cam = this.store.byId.get(id);
+        const old = this.poseOf(cam);
+        d.cameras.set(id, { x: x + i * this.step * 4, y, yaw_deg: old?.yaw_deg ?? 90,
+          fov_deg: cam.fov_deg ?? this.medianFov, range: cam.range ?? this.medianRange });
+      });
+    });
+  }
+
+  placeSelectionAtCentre() {
+    const unplaced = [...this.store.selection].filter((id) => !this.poseOf(this.store.byId.get(id)));
+    if (!unplaced.length) return this.notify("No selected image is waiting to be placed.");
+    this.place(unplaced, this.view.view.cx, this.view.view.cy);
+  }
+
+  resetSelected() {
+    if (!this.canEdit()) return;
+    const ids = [...this.store.selection].filter((id) => this.draft.cameras.has(id));
+    if (ids.length) this.draft.change((d) => ids.forEach((id) => d.cameras.delete(id)));
+  }
+
+  toggleFlag() {
+    if (!this.canEdit() || !this.store.selection.size) return;
+    const ids = [...this.store.selection];
+    const on = !ids.every((id) => this.draft.flags.has(id));
+    this.draft.change((d) => ids.forEach((id) => (on ? d.flags.add(id) : d.flags.delete(id))));
+  }
+
+  // Keys of the loop; returns true when the key was ours.
+  handleKey(e) {
+    const mod = e.ctrlKey || e.metaKey;
+    const big = e.shiftKey ? SHIFT : 1;
+    const arrows = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, 1], ArrowDown: [0, -1] };
+    if (arrows[e.key] && !mod && !e.altKey) {
+      const [sx, sy] = arrows[e.key];
+      this.move(sx * this.step * big, sy * this.step * big, 0, "move");
+    } else if (!mod && (e.key === "q" || e.key === "Q")) this.move(0, 0, ROTATE_DEG * big, "rotate");
+    else if (!mod && (e.key === "r" || e.key === "R")) this.move(0, 0, -ROTATE_DEG * big, "rotate");
+    else if (mod && e.key.toLowerCase() === "z") (e.shiftKey ? this.redo() : this.undo());
+    else if (mod && e.key.toLowerCase() === "y") this.redo();
+    else if (mod && e.key.toLowerCase() === "a") this.selection.all();
+    else if (e.key === "Escape") this.selection.clear();
+    else if (e.key === "]" || e.key === "}") this.selection.step(1, e.shiftKey);
+    else if (e.key === "[" || e.key === "{") this.selection.step(-1, e.shiftKey);
+    else if (!mod && e.key.toLowerCase() === "f") this.toggleFlag();
+    else if (!mod && e.key.toLowerCase() === "p") this.placeSelectionAtCentre();
+    else return false;
+    return true;
+  }
+
+  undo() { if (this.canEdit()) this.draft.undo(); }
+  redo() { if (this.canEdit()) this.draft.redo(); }
+}
+
+export const pick = (p) => ({ x: p.x, y: p.y, yaw_deg: p.yaw_deg, fov_deg: p.fov_deg, range: p.range });

@@ -1,0 +1,76 @@
+// The status bar: a job's stage and progress, polled with setTimeout until a terminal state.
+import { get, post } from "./api.js";
+
+const POLL_MS = 1000;
+export const TERMINAL = new Set(["succeeded", "failed", "cancelled"]);
+
+export class JobStatus {
+  constructor(root) {
+    this.root = root;
+    this.text = root.querySelector("#job-text");
+    this.bar = root.querySelector("#job-progress");
+    this.fill = this.bar.querySelector(".fill");
+    this.cancel = root.querySelector("#job-cancel");
+    this.cancel.addEventListener("click", () => this.cancelJob());
+    this.timer = 0;
+    this.token = 0;
+    this.job = null;
+  }
+
+  // Poll the job; onUpdate(job) runs on every answer; resolves with the job once it is terminal.
+  watch(jobId, onUpdate = () => {}) {
+    this.stop();
+    const token = (this.token += 1);
+    return new Promise((resolve, reject) => {
+      const poll = async () => {
+        if (token !== this.token) return;
+        try {
+          const job = await get(`/jobs/${jobId}`);
+          if (token !== this.token) return;
+          this.show(job);
+          onUpdate(job);
+          if (TERMINAL.has(job.state)) resolve(job);
+          else this.timer = setTimeout(poll, POLL_MS);
+        } catch (error) {
+          this.showText(`Lost track of job ${jobId}: ${error.message}`);
+          reject(error);
+        }
+      };
+      poll();
+    });
+  }
+
+  stop() {
+    clearTimeout(this.timer);
+    this.token += 1;
+  }
+
+  show(job) {
+    this.job = job;
+    const percent = Math.round(100 * (job.progress ?? 0));
+    Object.assign(this.root.dataset, { jobId: String(job.id), state: job.state, stage: job.stage ?? "",
+      progress: String(job.progress ?? 0), kind: job.kind });
+    this.bar.setAttribute("aria-valuenow", String(percent));
+    this.bar.hidden = false;
+    this.fill.style.width = `${percent}%`;
+    const stage = job.stage ? ` · ${job.stage}` : "";
+    const why = job.state === "failed" ? job.error ?? job.message : job.message;
+    const detail = why ? ` · ${why}` : "";
+    this.text.textContent = `Job ${job.id} (${job.kind}): ${job.state}${stage} · ${percent}%${detail}`;
+    this.cancel.hidden = TERMINAL.has(job.state);
+  }
+
+  showText(text) {
+    this.text.textContent = text;
+  }
+
+  async cancelJob() {
+    if (!this.job) return;
+    try {
+      await post(`/jobs/${this.job.id}/cancel`);
+      this.showText(`Cancelling job ${this.job.id}…`);
+    } catch (error) {
+      this.showText(`Could not cancel: ${error.message}`);
+    }
+  }
+}

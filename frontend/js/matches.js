@@ -1,0 +1,66 @@
+// The matching panel: the images matched to the selected camera, with thumbnails and inlier
+// counts; checked rows become manual deletions of the edit set ("delete selected matching").
+import { pairKey } from "./geometry.js";
+import { thumbnailUrl } from "./thumbs.js";
+
+export class MatchesPanel {
+  constructor(root, { store, draft, editor }, signal) {
+    Object.assign(this, { root, store, draft, editor });
+    this.list = root.querySelector("#match-list");
+    this.title = root.querySelector("#match-title");
+    root.querySelector("#delete-matching").addEventListener("click", () => this.deleteChecked(true), { signal });
+    root.querySelector("#keep-matching").addEventListener("click", () => this.deleteChecked(false), { signal });
+    root.addEventListener("toggle", () => this.render(), { signal });
+  }
+
+  get focusId() {
+    const { selection, anchor } = this.store;
+    if (selection.has(anchor)) return anchor;
+    return selection.size ? [...selection][0] : null;
+  }
+
+  render() {
+    if (!this.root.open) return; // rebuilt when opened; not on every key press while closed
+    const id = this.focusId;
+    const cam = this.store.byId.get(id);
+    this.list.replaceChildren();
+    if (!cam) {
+      this.title.textContent = "Select a camera to list its matched images.";
+      return;
+    }
+    const partners = [...(this.store.pairs.get(id) ?? [])].sort((a, b) => b[1] - a[1]);
+    this.title.textContent = `${cam.name}: ${partners.length} matched images`;
+    this.root.dataset.imageId = String(id);
+    for (const [partner, inliers] of partners) this.list.append(this.row(id, partner, inliers));
+  }
+
+  row(id, partner, inliers) {
+    const other = this.store.byId.get(partner);
+    const key = pairKey(id, partner);
+    const li = document.createElement("li");
+    li.dataset.pair = key;
+    li.classList.toggle("deleted", this.draft.deletePairs.has(key));
+    const label = document.createElement("label");
+    const box = document.createElement("input");
+    box.type = "checkbox";
+    box.value = key;
+    const img = document.createElement("img");
+    img.alt = "";
+    thumbnailUrl(this.store.project.id, partner).then((url) => { img.src = url; }, () => {});
+    const text = document.createElement("span");
+    const state = this.draft.deletePairs.has(key) ? " (deleted)" : "";
+    text.textContent = `${other?.name ?? partner}: ${inliers} inliers${state}`;
+    label.append(box, img, text);
+    li.append(label);
+    const hover = (id) => { this.store.hovered = id; this.store.emit("hover"); };
+    li.addEventListener("pointerenter", () => hover(partner));
+    li.addEventListener("pointerleave", () => hover(null));
+    return li;
+  }
+
+  deleteChecked(deleted) {
+    const keys = [...this.list.querySelectorAll("input:checked")].map((box) => box.value);
+    if (!keys.length || !this.editor.canEdit()) return;
+    this.draft.change((d) => d.togglePairs(keys, deleted));
+  }
+}

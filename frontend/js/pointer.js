@@ -1,0 +1,81 @@
+// Mouse on the scene: hover, click to select, drag the selection, drag empty space to pan,
+// wheel to zoom (shift+wheel rotates the selection), and drop images from the strip.
+import { pick } from "./editor.js";
+
+export const DRAG_TYPE = "application/x-gsfm-image";
+
+export function bindPointer(canvas, { store, view, editor, selection }, signal) {
+  let gesture = null; // {kind: "pan"|"drag", x, y, moved, start}
+  let drags = 0;
+
+  canvas.addEventListener("pointerdown", (e) => {
+    if (e.button !== 0) return;
+    canvas.focus();
+    const hit = view.hitTest(e.clientX, e.clientY);
+    const toggle = e.ctrlKey || e.metaKey;
+    if (hit !== null) {
+      if (toggle || e.shiftKey || !store.selection.has(hit)) selection.click(hit, { shift: e.shiftKey, toggle });
+      const poses = store.editable && !toggle ? editor.selectedPoses() : [];
+      gesture = { kind: poses.length ? "drag" : "none", start: view.toWorld(e.clientX, e.clientY),
+        poses, key: `drag${(drags += 1)}` };
+    } else {
+      const last = view.toWorld(e.clientX, e.clientY);
+      gesture = { kind: "pan", last, moved: false, clear: !toggle && !e.shiftKey };
+    }
+    canvas.setPointerCapture(e.pointerId);
+  }, { signal });
+
+  canvas.addEventListener("pointermove", (e) => {
+    if (!gesture) return hover(e);
+    const here = view.toWorld(e.clientX, e.clientY);
+    if (gesture.kind === "pan") {
+      view.panBy(here[0] - gesture.last[0], here[1] - gesture.last[1]);
+      gesture.last = view.toWorld(e.clientX, e.clientY);
+      gesture.moved = true;
+    } else if (gesture.kind === "drag") {
+      const [dx, dy] = [here[0] - gesture.start[0], here[1] - gesture.start[1]];
+      editor.draft.change((d) => {
+        for (const p of gesture.poses) {
+          d.cameras.set(p.id, { ...pick(p), x: p.x + dx, y: p.y + dy });
+        }
+      }, gesture.key, true);
+    }
+  }, { signal });
+
+  const end = () => {
+    if (gesture?.kind === "pan" && !gesture.moved && gesture.clear) selection.clear();
+    gesture = null;
+  };
+  canvas.addEventListener("pointerup", end, { signal });
+  canvas.addEventListener("pointercancel", end, { signal });
+  canvas.addEventListener("pointerleave", () => setHover(null), { signal });
+
+  function hover(e) { setHover(view.hitTest(e.clientX, e.clientY)); }
+  function setHover(id) {
+    if (store.hovered === id) return;
+    store.hovered = id;
+    store.emit("hover");
+  }
+
+  canvas.addEventListener("wheel", (e) => {
+    e.preventDefault();
+    if (e.shiftKey && store.selection.size) {
+      editor.move(0, 0, e.deltaY > 0 ? -2 : 2, "wheel-rotate");
+    } else {
+      view.zoomAt(e.clientX, e.clientY, Math.exp(-e.deltaY * 0.0015));
+    }
+  }, { signal, passive: false });
+
+  canvas.addEventListener("dragover", (e) => {
+    if (e.dataTransfer.types.includes(DRAG_TYPE)) e.preventDefault();
+  }, { signal });
+  canvas.addEventListener("drop", (e) => {
+    const raw = e.dataTransfer.getData(DRAG_TYPE);
+    if (!raw) return;
+    e.preventDefault();
+    const id = Number(raw);
+    const [x, y] = view.toWorld(e.clientX, e.clientY);
+    editor.place([id], x, y);
+    selection.set([id], id);
+  }, { signal });
+}

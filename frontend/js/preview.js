@@ -1,0 +1,108 @@
+// Live preview: match lines of the moved (and, with "show matching", the selected) cameras, the
+// pairs the server's preview would cut in red, an instant triangle-test estimate while it is
+// stale, the counter and the warning when the match graph would split.
+import { frustum, pairKey, splitKey, trianglesIntersect } from "./geometry.js";
+
+const MAX_LINE_CAMERAS = 300; // beyond this many moved cameras only the cut lines are drawn
+
+export class Preview {
+  constructor(root, { store, draft, editor, view }) {
+    Object.assign(this, { root, store, draft, editor, view });
+    this.counter = root.querySelector("#cut-counter");
+    this.warning = root.querySelector("#split-warning");
+    this.details = root.querySelector("#preview-details");
+  }
+
+  // Pairs the paper's triangle test would cut, plus the manual deletions (browser-side estimate).
+  predicted() {
+    const { store, draft, editor } = this;
+    const cuts = new Set(draft.deletePairs);
+    for (const id of draft.cameras.keys()) {
+      const a = editor.poseOf(store.byId.get(id));
+      if (!a) continue;
+      const triangle = frustum(a);
+      for (const partner of store.pairs.get(id)?.keys() ?? []) {
+        const b = editor.poseOf(store.byId.get(partner));
+        if (b?.fov_deg && b.range && !trianglesIntersect(triangle, frustum(b))) cuts.add(pairKey(id, partner));
+      }
+    }
+    return cuts;
+  }
+
+  serverCuts() {
+    return new Set((this.store.preview?.pairs_to_delete ?? []).map(([a, b]) => pairKey(a, b)));
+  }
+
+  refresh() {
+    const ready = this.store.previewState !== "stale";
+    const predicted = this.predicted();
+    const cuts = ready ? this.serverCuts() : predicted;
+    this.view.lines = this.lines(cuts, ready ? "cut" : "predicted");
+    const red = this.view.lines.filter((l) => l.kind !== "match").length;
+    this.view.canvas.dataset.redLines = String(red);
+    this.view.canvas.dataset.lines = String(this.view.lines.length);
+    this.view.requestDraw();
+    this.renderCounter(predicted.size);
+  }
+
+  lines(cuts, cutKind) {
+    const { store, draft } = this;
+    const keys = new Map(); // pairKey -> inliers
+    const addAll = (id) => {
+      for (const [partner, n] of store.pairs.get(id) ?? []) keys.set(pairKey(id, partner), n);
+    };
+    if (draft.cameras.size <= MAX_LINE_CAMERAS) for (const id of draft.cameras.keys()) addAll(id);
+    if (store.showMatching) for (const id of [...store.selection].slice(0, 50)) addAll(id);
+    for (const key of cuts) if (!keys.has(key)) keys.set(key, 0);
+    let max = 1;
+    for (const n of keys.values()) if (n > max) max = n;
+    return [...keys].map(([key, n]) => {
+      const [a, b] = splitKey(key);
+      const weight = store.showMatching ? 1 + 3 * Math.sqrt(n / max) : 1;
+      const cut = cuts.has(key);
+      return { a, b, kind: cut ? cutKind : "match", weight: cut ? Math.max(2, weight) : weight };
+    });
+  }
+
+  renderCounter(predictedCount) {
+    const { preview, previewState } = this.store;
+    const count = preview?.pairs_to_delete?.length ?? 0;
+    const c = this.counter;
+    c.dataset.state = previewState;
+    c.dataset.count = String(count);
+    c.dataset.predicted = String(predictedCount);
+    c.querySelector(".count").textContent = previewState === "stale" ? `≈${predictedCount}` : String(count);
+    c.querySelector(".note").textContent = previewState === "stale"
+      ? "estimate from the triangles; the server's preview follows the save" : "pairs the rule would delete";
+    const split = preview && preview.components_after > preview.components_before;
+    this.warning.hidden = !split;
+    if (split) {
+      this.warning.textContent = `Warning: the match graph would split from ${preview.components_before} into ` +
+        `${preview.components_after} components; the model may break apart.`;
+    }
+    c.dataset.componentsBefore = String(preview?.components_before ?? "");
+    c.dataset.componentsAfter = String(preview?.components_after ?? "");
+    this.renderDetails(preview);
+  }
+
+  renderDetails(preview) {
+    const list = this.details;
+    list.replaceChildren();
+    if (!preview) return;
+    const tests = Object.entries(preview.removed_by_test ?? {}).map(([t, n]) => `${t}: ${n}`).join(", ");
+    const head = document.createElement("p");
+    head.textContent = `Components: ${preview.components_before} before, ${preview.components_after} after.` +
+      (tests ? ` Removed by test: ${tests}.` : "");
+    list.append(head);
+    const reasons = new Map((preview.reasons ?? []).map((r) => [pairKey(...r.pair), r.tests]));
+    const ul = document.createElement("ul");
+    for (const [a, b] of preview.pairs_to_delete.slice(0, 200)) {
+      const li = document.createElement("li");
+      const name = (id) => this.store.byId.get(id)?.name ?? `#${id}`;
+      const why = reasons.get(pairKey(a, b));
+      li.textContent = `${name(a)} – ${name(b)}${why ? ` (${why.join(", ")})` : ""}`;
+      ul.append(li);
+    }
+    list.append(ul);
+  }
+}

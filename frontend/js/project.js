@@ -1,0 +1,217 @@
+// The project page: loads a version's scene, pairs and edit set, and wires the panels together.
+import { get, post } from "./api.js";
+import { Draft } from "./draft.js";
+import { Editor } from "./editor.js";
+import { TERMINAL } from "./jobs.js";
+import { MatchesPanel } from "./matches.js";
+import { MembersPanel } from "./members.js";
+import { bindPointer } from "./pointer.js";
+import { Preview } from "./preview.js";
+import { SceneView } from "./scene.js";
+import { Selection } from "./selection.js";
+import { adjacency, camerasOf, createStore, pointsOf } from "./state.js";
+import { Strip } from "./strip.js";
+import { DraftSync } from "./sync.js";
+import { bindControls } from "./controls.js";
+import { UploadPanel } from "./upload.js";
+import { VersionsPanel } from "./versions.js";
+
+let view = null; // one SceneView per canvas, kept across pages
+const JOB_LOOK_MS = 15000;
+
+export class ProjectPage {
+  constructor(root, { jobStatus, notify, username }) {
+    Object.assign(this, { root, jobStatus, notify, username });
+    this.abort = new AbortController();
+    this.store = createStore();
+    this.draft = new Draft();
+  }
+
+  close() {
+    this.abort.abort();
+    this.jobStatus.stop();
+    clearTimeout(this.jobTimer);
+    clearTimeout(this.sync?.timer);
+  }
+
+  async open(projectId, versionId = null) {
+    const { store } = this;
+    store.project = await get(`/projects/${projectId}`);
+    const vid = versionId ?? store.project.head_version_id;
+    store.readOnly = versionId !== null && versionId !== store.project.head_version_id;
+    view ??= new SceneView(this.root.querySelector("#scene"));
+    this.view = view;
+    if (vid !== null && vid !== undefined) await this.loadVersion(projectId, vid);
+    else await this.loadEmpty(projectId);
+    this.wire();
+    this.showBanner(null);
+    await Promise.all([this.versions?.load(), this.loadMembers(), this.watchRunningJob()]);
+    if (this.sync && !store.readOnly) await this.sync.attach();
+    this.refresh();
+  }
+
+  async loadVersion(projectId, vid) {
+    const base = `/projects/${projectId}/versions/${vid}`;
+    const [version, scene, pairs] = await Promise.all([
+      get(`/projects/${projectId}/versions`).then((all) => all.find((v) => v.id === vid)),
+      get(`${base}/scene`), get(`${base}/pairs`)]);
+    if (!version) throw new Error(`version ${vid} does not exist in this project`);
+    this.setScene(version, scene, pairs);
+  }
+
+  setScene(version, scene, pairs) {
+    const { store } = this;
+    store.version = version;
+    store.frame = scene.frame;
+    store.cameras = camerasOf(scene);
+    store.byId = new Map(store.cameras.map((c) => [c.id, c]));
+    store.points = pointsOf(scene);
+    store.pairs = adjacency(pairs ?? []);
+    this.view.setScene(store.cameras, store.points);
+    this.view.lines = [];
+    this.view.arrows = [];
+    this.view.fit();
+    this.root.querySelector("#empty-scene").hidden = true;
+  }
+
+  // A project without a version: the strip shows the uploaded images, the scene stays empty.
+  async loadEmpty(projectId) {
+    const images = (await get(`/projects/${projectId}/images`)) ?? [];
+    const { store } = this;
+    store.version = null;
+    store.cameras = images.sort((a, b) => a.seq - b.seq).map((img, i) => ({ id: img.id, name: img.name,
+      seq: img.seq ?? i, registered: null, x: null, y: null, yaw_deg: null, fov_deg: null, range: null }));
+    store.byId = new Map(store.cameras.map((c) => [c.id, c]));
+    this.view.setScene(store.cameras, new Float32Array(0));
+    this.view.lines = [];
+    this.view.arrows = [];
+    this.view.requestDraw();
+    this.root.querySelector("#empty-scene").hidden = false;
+    this.root.querySelector("#images-panel").open = true;
+  }
+
+  wire() {
+    const { store, draft, view, notify } = this;
+    const signal = this.abort.signal;
+    const selection = new Selection(store);
+    this.selection = selection;
+    this.editor = new Editor(store, draft, view, selection, notify);
+    store.medianRange = this.editor.medianRange;
+    const ctx = { store, draft, editor: this.editor, view, selection, projectId: store.project.id, notify };
+    this.strip = new Strip(this.root.querySelector("#strip"), ctx, signal);
+    this.preview = new Preview(this.root.querySelector("#preview-panel"), ctx);
+    this.matches = new MatchesPanel(this.root.querySelector("#matching-panel"), ctx, signal);
+    if (store.version) {
+      this.versions = new VersionsPanel(this.root.querySelector("#versions-panel"),
+        { ...ctx, onRestored: () => this.reopen() }, signal);
+      this.sync = new DraftSync(store, draft, notify);
+    }
+    this.upload = new UploadPanel(this.root.querySelector("#images-panel"), { ...ctx,
+      onUploaded: () => { if (!store.version) this.reopen(); }, onJob: (job) => this.followJob(job) }, signal);
+    bindPointer(view.canvas, ctx, signal);
+    this.controls = bindControls(this.root, { ...ctx, page: this }, signal);
+    draft.onChange = (kind) => {
+      store.emit("draft");
+      if (kind !== "load") this.sync?.changed();
+    };
+    for (const name of ["draft", "selection", "preview"]) store.on(name, () => this.refresh());
+    store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
+  }
+
+  // Redraw the scene and the panels that depend on the draft, selection and preview.
+  refresh() {
+    const { store, draft, view } = this;
+    view.selected = store.selection;
+    view.moved = new Set(draft.cameras.keys());
+    view.flagged = draft.flags;
+    this.preview.refresh();
+    this.matches.render();
+    this.controls?.refresh();
+    const canvas = view.canvas;
+    canvas.dataset.selected = [...store.selection].join(",");
+    canvas.dataset.moved = [...draft.cameras.keys()].join(",");
+    canvas.dataset.versionId = String(store.version?.id ?? "");
+    canvas.dataset.editable = String(store.editable);
+  }
+
+  async loadMembers() {
+    const panel = this.root.querySelector("#members-panel");
+    const role = this.store.project.role;
+    panel.hidden = true;
+    if (role && role !== "owner") return;
+    try {
+      const members = new MembersPanel(panel, { projectId: this.store.project.id, notify: this.notify },
+        this.abort.signal);
+      const list = await members.load();
+      panel.hidden = list.find((m) => m.username === this.username)?.role !== "owner";
+    } catch {
+      panel.hidden = true;
+    }
+  }
+
+  // Follow a job of this project that is under way, and look again every so often for one
+  // that someone else starts.
+  async watchRunningJob(first = true) {
+    if (this.abort.signal.aborted || this.store.locked) return;
+    const jobs = (await get(`/projects/${this.store.project.id}/jobs`)) ?? [];
+    const running = jobs.find((j) => !TERMINAL.has(j.state));
+    if (running) this.followJob(running);
+    else if (jobs.length && first) this.jobStatus.show(jobs.sort((a, b) => b.id - a.id)[0]);
+    clearTimeout(this.jobTimer);
+    this.jobTimer = setTimeout(() => this.watchRunningJob(false).catch(() => {}), JOB_LOOK_MS);
+  }
+
+  // Lock editing while the job runs; when it ends, show the project's (new) head.
+  async followJob(job) {
+    this.setLocked(true, job);
+    const done = await this.jobStatus.watch(job.id);
+    this.setLocked(false);
+    if (done.state === "succeeded") this.notify(done.message || `Job ${done.id} (${done.kind}) finished.`);
+    else this.notify(`Job ${done.id} ${done.state}: ${done.error ?? done.message ?? ""}`, "error");
+    if (!this.abort.signal.aborted) this.reopen();
+  }
+
+  setLocked(locked, job = null) {
+    this.store.locked = locked;
+    this.root.dataset.locked = String(locked);
+    this.showBanner(job ? `Editing is locked while job ${job.id} (${job.kind}) runs.` : null);
+    this.refresh();
+  }
+
+  showBanner(text) {
+    const banner = this.root.querySelector("#banner");
+    const { readOnly, version, project } = this.store;
+    const readOnlyText = `Viewing v${version?.id} read-only; the head is v${project.head_version_id}.`;
+    const message = text ?? (readOnly ? readOnlyText : "");
+    banner.textContent = message;
+    banner.hidden = !message;
+    if (readOnly && !text) {
+      const back = document.createElement("a");
+      back.href = `#/p/${project.id}`;
+      back.textContent = " Back to the head";
+      banner.append(back);
+    }
+  }
+
+  // Show the project again (at its head when toHead), e.g. after a job or a restore.
+  reopen(toHead = true) {
+    const head = `#/p/${this.store.project.id}`;
+    if (toHead && location.hash !== head) location.hash = head;
+    else window.dispatchEvent(new CustomEvent("gsfm:reopen"));
+  }
+
+  // "Run reconstruction": save the edit set, apply it with remap, follow the job.
+  async apply() {
+    if (!this.editor.canEdit() || !this.sync) return;
+    await this.sync.flush();
+    if (this.sync.editId === null) await this.sync.save();
+    try {
+      const path = `/projects/${this.store.project.id}/edits/${this.sync.editId}/apply`;
+      const job = await post(path, { remap: true });
+      this.notify(`Applying the edits: job ${job.id}.`);
+      this.followJob(job);
+    } catch (error) {
+      this.notify(`Could not run the reconstruction: ${error.message}`, "error");
+    }
+  }
+}

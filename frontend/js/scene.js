@@ -1,0 +1,289 @@
+// The top-down scene on a <canvas>: world<->screen transform, density of points, camera glyphs,
+// frustum triangles, match lines, comparison arrows and a scale bar. It draws what it is told;
+// the editor owns selection and poses.
+import { DensityLayer } from "./density.js";
+import { drawArrows, drawFrusta, drawGlyphs, drawScaleBar, drawSegments } from "./glyphs.js";
+const COLOURS = ["points", "camera", "moved", "unregistered", "flagged", "selected", "hovered",
+  "match", "cut", "predicted", "arrow", "ghost", "frustum"];
+
+export class SceneView {
+  constructor(canvas) {
+    this.canvas = canvas;
+    this.ctx = canvas.getContext("2d");
+    this.density = new DensityLayer();
+    this.view = { cx: 0, cy: 0, scale: 1 }; // scale: device pixels per world unit
+    this.cameras = [];
+    this.points = new Float32Array(0);
+    this.poseOf = modelPose;
+    this.base = new Map(); // image id -> model pose, for ghosts of moved cameras
+    this.selected = new Set();
+    this.moved = new Set();
+    this.flagged = new Set();
+    this.hovered = null;
+    this.showFrusta = false;
+    this.lines = []; // [{a, b, kind: "match"|"cut"|"predicted", weight}]
+    this.arrows = []; // [{from: [x, y], to: [x, y]}]
+    this.colours = readColours(canvas);
+    this.frame = 0;
+    this.generation = 0; // bump to force the static layer to redraw (e.g. new colours)
+    new ResizeObserver(() => this.resize()).observe(canvas);
+    this.resize();
+  }
+
+  // New cameras and points; the poses are the model's until an editor sets poseOf.
+  setScene(cameras, points) {
+    this.poseOf = modelPose;
+    this.selected = new Set();
+    this.moved = new Set();
+    this.flagged = new Set();
+    this.hovered = null;
+    this.cameras = cameras;
+    this.points = points;
+    this.base = new Map(cameras.filter((c) => c.x !== null).map((c) => [c.id, c]));
+  }
+
+  resize() {
+    const dpr = window.devicePixelRatio || 1;
+    const w = Math.max(1, Math.round(this.canvas.clientWidth * dpr));
+    const h = Math.max(1, Math.round(this.canvas.clientHeight * dpr));
+    if (w !== this.canvas.width || h !== this.canvas.height) {
+      this.canvas.width = w;
+      this.canvas.height = h;
+      this.requestDraw();
+    }
+  }
+
+  // Fit every placed camera and the central 96% of the points into the view.
+  fit() {
+    const xs = [];
+    const ys = [];
+    const step = Math.max(2, 2 * Math.floor(this.points.length / 2 / 5000));
+    for (let i = 0; i < this.points.length; i += step) { xs.push(this.points[i]); ys.push(this.points[i + 1]); }
+    let [x0, x1] = xs.length ? quantiles(xs) : [Infinity, -Infinity];
+    let [y0, y1] = ys.length ? quantiles(ys) : [Infinity, -Infinity];
+    for (const cam of this.cameras) {
+      const p = this.poseOf(cam);
+      if (!p) continue;
+      [x0, x1, y0, y1] = [Math.min(x0, p.x), Math.max(x1, p.x), Math.min(y0, p.y), Math.max(y1, p.y)];
+    }
+    if (!(x1 >= x0)) return;
+    const { width, height } = this.canvas;
+    this.view.cx = (x0 + x1) / 2;
+    this.view.cy = (y0 + y1) / 2;
+    this.view.scale = 0.9 * Math.min(width / Math.max(x1 - x0, 1e-9), height / Math.max(y1 - y0, 1e-9));
+    this.requestDraw();
+  }
+
+  // Client (CSS pixel) coordinates of an event to world coordinates.
+  toWorld(clientX, clientY) {
+    const rect = this.canvas.getBoundingClientRect();
+    const dpr = this.canvas.width / rect.width;
+    const { cx, cy, scale } = this.view;
+    return [cx + ((clientX - rect.left) * dpr - this.canvas.width / 2) / scale,
+      cy - ((clientY - rect.top) * dpr - this.canvas.height / 2) / scale];
+  }
+
+  panBy(dxWorld, dyWorld) {
+    this.view.cx -= dxWorld;
+    this.view.cy -= dyWorld;
+    this.requestDraw();
+  }
+
+  zoomAt(clientX, clientY, factor) {
+    const [wx, wy] = this.toWorld(clientX, clientY);
+    this.view.scale *= factor;
+    const [ax, ay] = this.toWorld(clientX, clientY);
+    this.panBy(ax - wx, ay - wy);
+  }
+
+  // The camera whose glyph is nearest a client point, within `radius` CSS pixels.
+  hitTest(clientX, clientY, radius = 9) {
+    const [wx, wy] = this.toWorld(clientX, clientY);
+    const dpr = this.canvas.width / this.canvas.getBoundingClientRect().width;
+    let best = null;
+    let bestD = (radius * dpr) / this.view.scale;
+    for (const cam of this.cameras) {
+      const p = this.poseOf(cam);
+      if (!p) continue;
+      const d = Math.hypot(p.x - wx, p.y - wy);
+      if (d < bestD) { best = cam.id; bestD = d; }
+    }
+    return best;
+  }
+
+  requestDraw() {
+    if (this.pending) return;
+    this.pending = requestAnimationFrame(() => { this.pending = 0; this.draw(); });
+  }
+
+  // World to device pixels, as a closure for the glyph functions.
+  transform() {
+    const { cx, cy, scale } = this.view;
+    const ox = this.canvas.width / 2 - cx * scale;
+    const oy = this.canvas.height / 2 + cy * scale;
+    return (x, y) => [x * scale + ox, oy - y * scale];
+  }
+
+  draw() {
+    const { ctx, canvas, colours } = this;
+    const px = window.devicePixelRatio || 1;
+    const t = this.transform();
+    const posed = this.posedCameras();
+    const dynamic = posed.filter(([cam]) => cam.id === this.hovered || this.selected.has(cam.id));
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.clearRect(0, 0, canvas.width, canvas.height);
+    ctx.drawImage(this.staticLayer(posed, t, px), 0, 0);
+    if (this.showFrusta) {
+      drawFrusta(ctx, t, dynamic, { fill: colours.selectedFaint, stroke: colours.selected, px });
+    }
+    this.drawGhosts(t, px);
+    this.drawLines(t, px);
+    drawArrows(ctx, t, this.arrows, { colour: colours.arrow, px });
+    this.drawCameras(ctx, t, dynamic, px);
+    if (posed.length || this.points.length) this.drawScale(px);
+    this.frame += 1;
+    Object.assign(canvas.dataset, { frame: String(this.frame), hovered: String(this.hovered ?? ""),
+      view: `${this.view.cx},${this.view.cy},${this.view.scale}` });
+  }
+
+  drawScale(px) {
+    const { ctx, canvas, colours } = this;
+    const length = drawScaleBar(ctx, { width: canvas.width, height: canvas.height, scale: this.view.scale,
+      px, ink: colours.ink, background: colours.scaleBg });
+    canvas.dataset.scaleBar = String(length);
+  }
+
+  // Points and every camera that is neither selected nor hovered, redrawn only when they change
+  // (moving a selection redraws just the selection on top).
+  staticLayer(posed, t, px) {
+    const items = posed.filter(([cam]) => cam.id !== this.hovered && !this.selected.has(cam.id));
+    const key = this.staticKey(items);
+    if (sameKey(key, this.lastKey)) return this.layer;
+    this.lastKey = key;
+    this.layer ??= document.createElement("canvas");
+    const { layer, canvas, colours } = this;
+    layer.width = canvas.width;
+    layer.height = canvas.height;
+    const ctx = layer.getContext("2d");
+    const density = this.density.render(this.points, this.view, canvas.width, canvas.height, colours.pointsRgb);
+    ctx.imageSmoothingEnabled = false;
+    ctx.drawImage(density, 0, 0, canvas.width, canvas.height);
+    if (this.showFrusta) drawFrusta(ctx, t, items, { fill: colours.frustumFaint, stroke: colours.frustum, px });
+    this.drawCameras(ctx, t, items, px);
+    return layer;
+  }
+
+  staticKey(items) {
+    const { cx, cy, scale } = this.view;
+    const key = new Float64Array(8 + 7 * items.length);
+    key.set([cx, cy, scale, this.canvas.width, this.canvas.height, this.showFrusta ? 1 : 0,
+      this.points.length, this.generation]);
+    let k = 8;
+    for (const [cam, p] of items) {
+      key[k++] = cam.id;
+      key[k++] = CATEGORIES.indexOf(this.categoryOf(cam));
+      key[k++] = p.x;
+      key[k++] = p.y;
+      key[k++] = p.yaw_deg;
+      key[k++] = p.fov_deg ?? -1;
+      key[k++] = p.range ?? -1;
+    }
+    return key;
+  }
+
+  posedCameras() {
+    const out = [];
+    for (const cam of this.cameras) {
+      const pose = this.poseOf(cam);
+      if (pose) out.push([cam, pose]);
+    }
+    return out;
+  }
+
+  drawGhosts(t, px) {
+    const segments = [];
+    for (const id of this.moved) {
+      const from = this.base.get(id);
+      const to = from && this.poseOf(from);
+      if (to) segments.push([from.x, from.y, to.x, to.y]);
+    }
+    drawSegments(this.ctx, t, segments, { colour: this.colours.ghost, width: px, dash: [3 * px, 3 * px] });
+  }
+
+  drawLines(t, px) {
+    if (!this.lines.length) return;
+    const byId = new Map();
+    for (const cam of this.cameras) {
+      const pose = this.poseOf(cam);
+      if (pose) byId.set(cam.id, pose);
+    }
+    const groups = new Map(); // "kind width" -> segments
+    for (const line of this.lines) {
+      const a = byId.get(line.a);
+      const b = byId.get(line.b);
+      if (!a || !b) continue;
+      const width = Math.min(4, Math.max(1, Math.round(line.weight ?? 1)));
+      const key = `${LINE_ORDER.indexOf(line.kind)} ${width}`;
+      if (!groups.has(key)) groups.set(key, []);
+      groups.get(key).push([a.x, a.y, b.x, b.y]);
+    }
+    for (const key of [...groups.keys()].sort()) {
+      const [order, width] = key.split(" ").map(Number);
+      const kind = LINE_ORDER[order];
+      drawSegments(this.ctx, t, groups.get(key), { colour: this.colours[kind], width: width * px,
+        dash: kind === "predicted" ? [4 * px, 3 * px] : [] });
+    }
+  }
+
+  categoryOf(cam) {
+    if (cam.id === this.hovered) return "hovered";
+    if (this.selected.has(cam.id)) return "selected";
+    if (this.flagged.has(cam.id)) return "flagged";
+    if (!cam.registered) return "unregistered";
+    return this.moved.has(cam.id) ? "moved" : "camera";
+  }
+
+  drawCameras(ctx, t, posed, px) {
+    const groups = new Map(CATEGORIES.map((name) => [name, []]));
+    for (const item of posed) groups.get(this.categoryOf(item[0])).push(item);
+    for (const [name, items] of groups) {
+      if (!items.length) continue;
+      const big = name === "selected" || name === "hovered";
+      drawGlyphs(ctx, t, items, { radius: (big ? 4.5 : 3.2) * px, length: (big ? 15 : 10) * px,
+        colour: this.colours[name], px });
+    }
+  }
+}
+
+const modelPose = (cam) => (cam.x === null ? null : cam);
+const CATEGORIES = ["camera", "unregistered", "moved", "flagged", "selected", "hovered"];
+const LINE_ORDER = ["match", "predicted", "cut"];
+
+function sameKey(a, b) {
+  if (!b || a.length !== b.length) return false;
+  for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) return false;
+  return true;
+}
+
+function quantiles(values) {
+  const sorted = Float64Array.from(values).sort();
+  const at = (q) => sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
+  return [at(0.02), at(0.98)];
+}
+
+function readColours(element) {
+  const style = getComputedStyle(element);
+  const colours = {};
+  for (const name of COLOURS) colours[name] = style.getPropertyValue(`--c-${name}`).trim() || "#888";
+  colours.ink = style.getPropertyValue("--ink").trim() || "#111";
+  colours.scaleBg = "rgba(255, 255, 255, 0.8)";
+  colours.selectedFaint = "rgba(221, 107, 32, 0.12)";
+  colours.frustumFaint = "rgba(43, 108, 176, 0.05)";
+  colours.pointsRgb = hexRgb(colours.points);
+  return colours;
+}
+
+function hexRgb(hex) {
+  const m = /^#([0-9a-f]{2})([0-9a-f]{2})([0-9a-f]{2})$/i.exec(hex);
+  return m ? m.slice(1).map((h) => parseInt(h, 16)) : [60, 60, 60];
+}

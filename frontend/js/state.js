@@ -1,0 +1,53 @@
+// The open project's state shared by the panels, with named change events.
+
+export function createStore() {
+  const events = new EventTarget();
+  return {
+    project: null,
+    version: null, // the version on screen
+    readOnly: false, // an older version opened for viewing
+    locked: false, // a job of this project is queued or running
+    cameras: [], // [{id, name, seq, registered, x, y, yaw_deg, fov_deg, range, center}]
+    byId: new Map(),
+    images: [],
+    points: new Float32Array(0),
+    pairs: new Map(), // image id -> Map(partner id -> inliers)
+    selection: new Set(),
+    anchor: null, // last clicked image, for shift-click ranges
+    hovered: null,
+    showMatching: false,
+    on(name, handler) { events.addEventListener(name, (e) => handler(e.detail)); },
+    emit(name, detail) { events.dispatchEvent(new CustomEvent(name, { detail })); },
+    get editable() { return !this.readOnly && !this.locked && !!this.version; },
+  };
+}
+
+// Scene cameras of the REST scene object, keyed by the image id.
+export function camerasOf(scene) {
+  return scene.cameras.map((c) => ({
+    id: c.image_id, name: c.name, seq: c.seq, registered: c.registered,
+    x: c.x ?? null, y: c.y ?? null, yaw_deg: c.yaw_deg ?? null,
+    fov_deg: c.fov_deg ?? null, range: c.range ?? null, center: c.center ?? null,
+  }));
+}
+
+export function pointsOf(scene) {
+  const xy = scene.points?.xy ?? [];
+  const out = new Float32Array(xy.length * 2);
+  xy.forEach(([x, y], i) => { out[2 * i] = x; out[2 * i + 1] = y; });
+  return out;
+}
+
+// GET .../pairs rows as an adjacency map.
+export function adjacency(rows) {
+  const pairs = new Map();
+  const link = (a, b, n) => {
+    if (!pairs.has(a)) pairs.set(a, new Map());
+    pairs.get(a).set(b, n);
+  };
+  for (const { image_id1: a, image_id2: b, num_inliers: n } of rows) {
+    link(a, b, n);
+    link(b, a, n);
+  }
+  return pairs;
+}

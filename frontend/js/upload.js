@@ -1,0 +1,52 @@
+// Adding images (JPEG/PNG or one .zip) with upload progress, and starting a reconstruction.
+import { post, upload } from "./api.js";
+
+export class UploadPanel {
+  constructor(root, { projectId, notify, onUploaded, onJob }, signal) {
+    Object.assign(this, { root, projectId, notify, onUploaded, onJob });
+    this.form = root.querySelector("#upload-form");
+    this.bar = root.querySelector("#upload-progress");
+    this.status = root.querySelector("#upload-status");
+    this.form.addEventListener("submit", (e) => { e.preventDefault(); this.send(); }, { signal });
+    root.querySelector("#reconstruct-form").addEventListener("submit", (e) => {
+      e.preventDefault();
+      this.reconstruct(new FormData(e.target));
+    }, { signal });
+  }
+
+  async send() {
+    const files = this.form.querySelector("input[type=file]").files;
+    if (!files.length) return this.notify("Choose images (or one .zip) first.");
+    const data = new FormData();
+    for (const file of files) data.append("files", file);
+    this.bar.hidden = false;
+    this.setProgress(0);
+    try {
+      const images = await upload(`/projects/${this.projectId}/images`, data, (f) => this.setProgress(f));
+      this.setProgress(1);
+      this.status.textContent = `Uploaded ${images.length} images.`;
+      this.form.reset();
+      this.onUploaded(images);
+    } catch (error) {
+      this.status.textContent = `Upload failed: ${error.message}`;
+    }
+  }
+
+  setProgress(fraction) {
+    const percent = Math.round(100 * fraction);
+    this.bar.querySelector(".fill").style.width = `${percent}%`;
+    this.bar.setAttribute("aria-valuenow", String(percent));
+    this.status.textContent = `Uploading… ${percent}%`;
+  }
+
+  async reconstruct(form) {
+    const body = { matcher: form.get("matcher"), mapper: form.get("mapper") };
+    try {
+      const job = await post(`/projects/${this.projectId}/reconstruct`, body);
+      this.notify(`Reconstruction queued (job ${job.id}).`);
+      this.onJob(job);
+    } catch (error) {
+      this.notify(`Could not start the reconstruction: ${error.message}`, "error");
+    }
+  }
+}

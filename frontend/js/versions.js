@@ -1,0 +1,148 @@
+// Version history: author, time and stats of every version; open one read-only, restore it, or
+// compare it with the version on screen (cameras that moved, drawn as arrows).
+import { get, post } from "./api.js";
+import { fitSimilarity } from "./compare.js";
+
+export class VersionsPanel {
+  constructor(root, { store, view, notify, onRestored }, signal) {
+    Object.assign(this, { root, store, view, notify, onRestored });
+    this.list = root.querySelector("#version-list");
+    this.summary = root.querySelector("#compare-summary");
+    this.clearButton = root.querySelector("#compare-clear");
+    this.clearButton.addEventListener("click", () => this.clearCompare(), { signal });
+    this.list.addEventListener("click", (e) => this.onClick(e), { signal });
+    this.clearCompare();
+  }
+
+  get base() { return `/projects/${this.store.project.id}/versions`; }
+
+  async load() {
+    const versions = (await get(this.base)) ?? [];
+    versions.sort((a, b) => b.id - a.id);
+    this.versions = versions;
+    this.list.replaceChildren(...versions.map((v) => this.row(v)));
+    this.root.dataset.count = String(versions.length);
+    return versions;
+  }
+
+  row(v) {
+    const { project, version, locked } = this.store;
+    const li = document.createElement("li");
+    li.dataset.versionId = String(v.id);
+    const isHead = v.id === project.head_version_id;
+    const onScreen = v.id === version?.id;
+    li.classList.toggle("head", isHead);
+    li.classList.toggle("open", onScreen);
+    const s = v.stats ?? {};
+    const when = v.created_at ? new Date(v.created_at).toLocaleString() : "";
+    const title = document.createElement("div");
+    title.className = "version-title";
+    title.textContent = `v${v.id} · ${v.kind ?? ""}${isHead ? " · head" : ""}${onScreen ? " · on screen" : ""}`;
+    const meta = document.createElement("div");
+    meta.className = "version-meta";
+    meta.textContent = `${v.author ?? "?"}, ${when}`;
+    const stats = document.createElement("div");
+    stats.className = "version-stats";
+    stats.textContent = `${s.num_registered ?? "?"}/${s.num_images ?? "?"} registered · ` +
+      `${s.num_pairs ?? "?"} pairs · ${s.num_models ?? "?"} models · ${s.num_points ?? "?"} points`;
+    li.append(title, meta, stats);
+    if (v.message) {
+      const message = document.createElement("div");
+      message.className = "version-meta";
+      message.textContent = v.message;
+      li.append(message);
+    }
+    const actions = document.createElement("div");
+    actions.className = "row";
+    const openTitle = isHead ? "Open the head for editing" : "Open read-only";
+    if (!onScreen) actions.append(button("Open", "open", v.id, openTitle));
+    if (!isHead) actions.append(button("Restore", "restore", v.id, "Make a new head with this content", locked));
+    if (!onScreen) actions.append(button("Compare", "compare", v.id, "Arrows from it to the version on screen"));
+    li.append(actions);
+    return li;
+  }
+
+  onClick(e) {
+    const target = e.target.closest("button[data-action]");
+    if (!target) return;
+    const id = Number(target.dataset.versionId);
+    if (target.dataset.action === "open") {
+      const head = id === this.store.project.head_version_id;
+      location.hash = head ? `#/p/${this.store.project.id}` : `#/p/${this.store.project.id}/v/${id}`;
+    } else if (target.dataset.action === "restore") this.restore(id);
+    else this.compare(id);
+  }
+
+  async restore(id) {
+    try {
+      const version = await post(`${this.base}/${id}/restore`);
+      this.notify(`Restored v${id} as the new head v${version.id}.`);
+      this.onRestored(version);
+    } catch (error) {
+      this.notify(`Could not restore v${id}: ${error.message}`, "error");
+    }
+  }
+
+  async compare(otherId) {
+    const current = this.store.version.id;
+    try {
+      const [result, scene] = await Promise.all([
+        get(`${this.base}/${otherId}/compare?to=${current}`),
+        get(`${this.base}/${otherId}/scene`),
+      ]);
+      this.showArrows(otherId, result, scene);
+    } catch (error) {
+      this.notify(`Could not compare v${otherId} with v${current}: ${error.message}`, "error");
+    }
+  }
+
+  // Arrows from each camera's place in the other version to its place on screen.
+  showArrows(otherId, result, scene) {
+    const frame = this.store.frame;
+    const project = (c) => {
+      const d = c.map((v, i) => v - frame.origin[i]);
+      return [dot(d, frame.x_axis), dot(d, frame.y_axis)];
+    };
+    const before = new Map(scene.cameras.filter((c) => c.center).map((c) => [c.image_id, project(c.center)]));
+    const changes = new Map(result.cameras.map((c) => [c.image_id, c]));
+    const common = this.store.cameras.filter((c) => c.x !== null && before.has(c.id));
+    const moved = common.filter((c) => isMoved(changes.get(c.id), this.store.medianRange));
+    const still = common.filter((c) => !moved.includes(c));
+    const anchors = still.length >= 2 ? still : common;
+    const toScreen = fitSimilarity(anchors.map((c) => [before.get(c.id), [c.x, c.y]]));
+    this.view.arrows = moved.map((c) => ({ from: toScreen(before.get(c.id)), to: [c.x, c.y] }));
+    this.view.requestDraw();
+    this.summary.dataset.moved = String(moved.length);
+    this.summary.textContent = `v${otherId} → v${this.store.version.id}: ${moved.length} of ${common.length} ` +
+      "cameras moved (arrows).";
+    this.clearButton.hidden = false;
+  }
+
+  clearCompare() {
+    this.view.arrows = [];
+    this.view.requestDraw();
+    this.summary.textContent = "";
+    delete this.summary.dataset.moved;
+    this.clearButton.hidden = true;
+  }
+}
+
+const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+
+// Moved: farther than a tenth of the median camera range, or turned more than 5 degrees.
+function isMoved(change, medianRange) {
+  if (!change) return false;
+  const distance = typeof change.moved === "number" ? change.moved : change.moved ? Infinity : 0;
+  return distance > 0.1 * medianRange || (change.rotated_deg ?? 0) > 5;
+}
+
+function button(text, action, versionId, title, disabled = false) {
+  const b = document.createElement("button");
+  b.type = "button";
+  b.textContent = text;
+  b.title = title;
+  b.disabled = disabled;
+  b.dataset.action = action;
+  b.dataset.versionId = String(versionId);
+  return b;
+}

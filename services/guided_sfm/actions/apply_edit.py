@@ -1,0 +1,34 @@
+"""Apply an edit set: prune the base version's pairs into a new workspace, then map it again."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from guided_sfm.actions.context import JobContext, Produced
+from guided_sfm.actions.ids import IdMap
+from guided_sfm.core import workspace as ws
+from guided_sfm.core.edits import parse_edits
+from guided_sfm.core.errors import MissingWorkspace
+from guided_sfm.db.models import Version
+from guided_sfm.db.session import session_scope
+
+
+def run(context: JobContext, work: Path) -> Produced:
+    job = context.job
+    body, remap = job.params["body"], bool(job.params.get("remap", True))
+    with session_scope(context.sessions) as session:
+        base = session.get(Version, job.base_version_id)
+        if base is None:
+            raise MissingWorkspace(f"the base version {job.base_version_id} no longer exists")
+        base_dir = context.store.version_dir(base.path)
+        ids = IdMap.load(session, job.project_id, base_dir)
+    edits = parse_edits(ids.edits_body(body), ws.image_ids(base_dir))
+    context.progress("prune", 0.0)
+    outcome = ws.prune(base_dir, edits, work)
+    if remap:
+        ws.map_again(work, context.images_dir(), context.options(), context.progress, context.cancel)
+    named = [(ids.sql(a), ids.sql(b), outcome.reasons.get((a, b), ())) for a, b in outcome.deleted]
+    deleted = [(min(a, b), max(a, b), tests) for a, b, tests in named if a is not None and b is not None]
+    message = (f"edit set {job.params.get('edit_set_id')}: deleted {len(deleted)} pairs"
+               + (", mapped again" if remap else ", not mapped again"))
+    return Produced(work, "apply", message, base.id, ws.stats(work), edits=body, deleted_pairs=deleted)

@@ -1,0 +1,58 @@
+"""What a job's action receives (JobContext) and returns (Produced): plain values, no Celery."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy.orm import Session, sessionmaker
+
+from guided_sfm.core.sfm import CancelToken, SfmOptions
+from guided_sfm.core.types import Progress
+from guided_sfm.db.models import Job
+from guided_sfm.settings import Settings
+from guided_sfm.storage import ArtifactStore
+
+SFM_PARAMS = ("camera_model", "matcher", "mapper")
+
+
+@dataclass(frozen=True)
+class JobContext:
+    settings: Settings
+    store: ArtifactStore
+    sessions: sessionmaker[Session]
+    job: Job  # a detached snapshot of the row as it was claimed
+    progress: Progress
+    cancel: CancelToken
+
+    def options(self) -> SfmOptions:
+        """The job's SfM options over the defaults, with the configured thread count."""
+        chosen = {k: v for k, v in self.job.params.items() if k in SFM_PARAMS and v}
+        return SfmOptions(num_threads=self.settings.threads, **chosen)
+
+    def images_dir(self) -> Path:
+        return self.store.images_dir(self.job.project_id)
+
+
+@dataclass
+class NewImage:
+    name: str
+    width: int
+    height: int
+    taken_at: str | None = None
+
+
+@dataclass
+class Produced:
+    """A finished workspace in staging, and what its version row should say."""
+
+    workspace: Path
+    kind: str
+    message: str
+    parent_id: int | None
+    stats: dict[str, int]
+    edits: dict[str, Any] | None = None
+    deleted_pairs: list[tuple[int, int, tuple[str, ...]]] = field(default_factory=list)  # REST ids
+    new_images: list[NewImage] = field(default_factory=list)  # import: files in `images_from`
+    images_from: Path | None = None

@@ -1,0 +1,74 @@
+"""Edit sets (drafts on a base version): validated at the edge, saved with optimistic concurrency."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sqlalchemy import update
+from sqlalchemy.orm import Session
+
+from guided_sfm.core.edits import edits_to_json, parse_edits
+from guided_sfm.core.errors import InvalidInput, UnknownImage
+from guided_sfm.db import queries
+from guided_sfm.db.models import EditSetRow, Project, utcnow
+from guided_sfm.errors import Conflict, NotFound, PreconditionRequired
+
+
+def validate(session: Session, project: Project, body: dict[str, Any]) -> dict[str, Any]:
+    """The normalized body (REST image ids); raises naming the first problem found."""
+    base_id = body.get("base_version_id")
+    if queries.version_in_project(session, project.id, base_id) is None:
+        raise NotFound(f"version {base_id} is not a version of project {project.id}")
+    ids = queries.image_ids_by_name(session, project.id)
+    known = set(ids.values())
+    edits = parse_edits(body, ids)
+    flags = body.get("flags") or []
+    for image_id in flags:
+        if isinstance(image_id, bool) or not isinstance(image_id, int):
+            raise InvalidInput(f"flags must be image ids, got {image_id!r}")
+        if image_id not in known:
+            raise UnknownImage(f"unknown image id {image_id} in flags")
+    return {"base_version_id": base_id, **edits_to_json(edits), "flags": sorted(set(flags))}
+
+
+def create(session: Session, project: Project, body: dict[str, Any], user_id: int) -> EditSetRow:
+    clean = validate(session, project, body)
+    row = EditSetRow(project_id=project.id, base_version_id=clean["base_version_id"], body=clean,
+                     revision=1, updated_by_id=user_id)
+    session.add(row)
+    session.commit()
+    return row
+
+
+def parse_if_match(header: str | None) -> int:
+    """The revision in If-Match (bare or quoted, weak tags too); 428 without one."""
+    if header is None or not header.strip():
+        raise PreconditionRequired("send If-Match: <revision> (the ETag of the edit set you changed)")
+    raw = header.strip().removeprefix("W/").strip('"')
+    try:
+        return int(raw)
+    except ValueError as exc:
+        raise Conflict(f"If-Match {header!r} is not a revision of this edit set") from exc
+
+
+def replace(session: Session, project: Project, row: EditSetRow, body: dict[str, Any],
+            if_match: str | None, user_id: int) -> EditSetRow:
+    """Save a new revision only if the client saw the current one (compare-and-set in SQL)."""
+    expected = parse_if_match(if_match)
+    clean = validate(session, project, body)
+    result = session.execute(
+        update(EditSetRow).where(EditSetRow.id == row.id, EditSetRow.revision == expected)
+        .values(body=clean, base_version_id=clean["base_version_id"], revision=expected + 1,
+                updated_by_id=user_id, updated_at=utcnow())
+    )
+    if result.rowcount != 1:
+        session.rollback()
+        raise Conflict(f"edit set {row.id} was saved by someone else (revision {expected} is not current)")
+    session.commit()
+    session.refresh(row)
+    return row
+
+
+def delete(session: Session, row: EditSetRow) -> None:
+    session.delete(row)
+    session.commit()

@@ -1,0 +1,75 @@
+"""Turn a job's finished staging workspace into a version row, atomically, and maybe the head."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from sqlalchemy.orm import Session
+
+from guided_sfm import jobs
+from guided_sfm.actions.context import NewImage, Produced
+from guided_sfm.db.models import Image, Job, PairDeletion, Project, Version
+from guided_sfm.errors import Conflict
+from guided_sfm.storage import ArtifactStore
+
+
+def publish(session: Session, store: ArtifactStore, job: Job, produced: Produced) -> Version:
+    """Publish the workspace (one rename), insert the version, finish the job; all or nothing."""
+    project = session.get(Project, job.project_id, with_for_update=True)
+    if project is None:
+        raise Conflict(f"project {job.project_id} was deleted while job {job.id} ran")
+    moved = _move_images(store, job.project_id, produced)
+    relative = store.publish(job.project_id, produced.workspace)
+    try:
+        version = _insert(session, job, produced, relative, project)
+        message = produced.message
+        if project.head_version_id == job.base_version_id:
+            project.head_version_id = version.id
+        else:
+            message += (f"; kept as a side version because the head moved from version "
+                        f"{job.base_version_id} to {project.head_version_id} while the job ran")
+            version.message = message
+        if not jobs.finish(session, job.id, "succeeded", message=message, version_id=version.id):
+            raise Conflict(f"job {job.id} was ended by someone else before it could publish")
+        session.commit()
+        return version
+    except BaseException:
+        session.rollback()
+        store.discard(relative)
+        for path in moved:
+            path.unlink(missing_ok=True)
+        raise
+
+
+def _insert(session: Session, job: Job, produced: Produced, relative: str, project: Project) -> Version:
+    if produced.new_images:
+        _add_images(session, project.id, produced.new_images)
+    version = Version(project_id=project.id, parent_id=produced.parent_id, kind=produced.kind,
+                      author_id=job.created_by, message=produced.message, stats=produced.stats,
+                      path=relative, edits=produced.edits)
+    session.add(version)
+    session.flush()
+    for id1, id2, tests in produced.deleted_pairs:
+        session.add(PairDeletion(version_id=version.id, image_id1=id1, image_id2=id2, tests=list(tests)))
+    return version
+
+
+def _add_images(session: Session, project_id: int, images: list[NewImage]) -> None:
+    for seq, image in enumerate(sorted(images, key=lambda i: i.name)):
+        session.add(Image(project_id=project_id, name=image.name, width=image.width,
+                          height=image.height, seq=seq, taken_at=image.taken_at))
+    session.flush()
+
+
+def _move_images(store: ArtifactStore, project_id: int, produced: Produced) -> list[Path]:
+    """An import's images go to the project's shared image folder (the project is empty)."""
+    if produced.images_from is None:
+        return []
+    target = store.images_dir(project_id)
+    target.mkdir(parents=True, exist_ok=True)
+    moved = []
+    for image in produced.new_images:
+        os.replace(produced.images_from / image.name, target / image.name)
+        moved.append(target / image.name)
+    return moved

@@ -1,0 +1,89 @@
+"""Read a version's workspace in REST terms (SQL image ids): scene, pairs, preview, compare."""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections import OrderedDict
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from guided_sfm.actions.ids import IdMap
+from guided_sfm.core import workspace as ws
+from guided_sfm.core.edits import parse_edits
+from guided_sfm.db.models import EditSetRow, Version
+from guided_sfm.storage import ArtifactStore
+
+
+def _workspace(store: ArtifactStore, version: Version) -> Path:
+    return store.version_dir(version.path)
+
+
+class _SceneCache:
+    """Serialized scenes of recent versions: a version never changes, and its JSON (thousands of
+    points) costs far more to build than to send. Keyed by the version's unique artifact path."""
+
+    def __init__(self, size: int = 32) -> None:
+        self.size, self.entries, self.lock = size, OrderedDict[str, bytes](), threading.Lock()
+
+    def get(self, session: Session, store: ArtifactStore, version: Version) -> bytes:
+        key = str(store.version_dir(version.path))
+        with self.lock:
+            if key in self.entries:
+                self.entries.move_to_end(key)
+                return self.entries[key]
+        data = json.dumps(scene(session, store, version), separators=(",", ":")).encode()
+        with self.lock:
+            self.entries[key] = data
+            while len(self.entries) > self.size:
+                self.entries.popitem(last=False)
+        return data
+
+
+scene_json = _SceneCache().get
+
+
+def scene(session: Session, store: ArtifactStore, version: Version) -> dict[str, Any]:
+    workspace = _workspace(store, version)
+    ids = IdMap.load(session, version.project_id, workspace)
+    data = ws.load_scene(workspace).to_dict()
+    data["cameras"] = [{**c, "image_id": ids.sql(c["image_id"])} for c in data["cameras"]]
+    return data
+
+
+def pairs(session: Session, store: ArtifactStore, version: Version, image_id: int | None) -> list[dict]:
+    workspace = _workspace(store, version)
+    ids = IdMap.load(session, version.project_id, workspace)
+    rows = []
+    for (a, b), inliers in sorted(ws.verified_pairs(workspace).items()):
+        id1, id2 = sorted((ids.sql(a) or 0, ids.sql(b) or 0))
+        if image_id is None or image_id in (id1, id2):
+            rows.append({"image_id1": id1, "image_id2": id2, "num_inliers": inliers})
+    return rows
+
+
+def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Version) -> dict[str, Any]:
+    """What applying the edit set would delete; nothing is written."""
+    workspace = _workspace(store, base)
+    ids = IdMap.load(session, base.project_id, workspace)
+    outcome = ws.preview(workspace, parse_edits(ids.edits_body(row.body), ws.image_ids(workspace)))
+
+    def rest(pair: tuple[int, int]) -> list[int]:
+        return sorted(ids.sql(i) or 0 for i in pair)
+
+    return {
+        "pairs_to_delete": sorted(rest(p) for p in outcome.deleted),
+        "components_before": outcome.components_before,
+        "components_after": outcome.components_after,
+        "removed_by_test": outcome.removed_by_test,
+        "reasons": sorted(({"pair": rest(p), "tests": list(t)} for p, t in outcome.reasons.items()),
+                          key=lambda r: r["pair"]),
+    }
+
+
+def compare(session: Session, store: ArtifactStore, version: Version, other: Version) -> dict[str, Any]:
+    ids = IdMap.load(session, other.project_id, _workspace(store, other))
+    rows = ws.compare(_workspace(store, version), _workspace(store, other))
+    return {"cameras": [{**r, "image_id": ids.sql(r["image_id"])} for r in rows]}

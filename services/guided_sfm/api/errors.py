@@ -1,0 +1,63 @@
+"""Domain errors -> HTTP status with {"detail": "..."}, mapped once for the whole API."""
+
+from __future__ import annotations
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from sqlalchemy.exc import DataError
+
+from guided_sfm import errors
+from guided_sfm.core.errors import (
+    Cancelled,
+    DomainError,
+    EmptyModel,
+    InvalidInput,
+    MissingWorkspace,
+    UnknownImage,
+)
+
+STATUS: list[tuple[type[DomainError], int]] = [
+    (errors.NotFound, 404),
+    (errors.Forbidden, 403),
+    (errors.Unauthorized, 401),
+    (errors.Conflict, 409),
+    (errors.PreconditionRequired, 428),
+    (errors.TooLarge, 413),
+    (errors.BadUpload, 422),
+    (InvalidInput, 422),
+    (UnknownImage, 422),
+    (EmptyModel, 409),
+    (MissingWorkspace, 409),
+    (Cancelled, 409),
+    (DomainError, 400),
+]
+
+
+def status_of(exc: DomainError) -> int:
+    return next(code for cls, code in STATUS if isinstance(exc, cls))
+
+
+async def domain_error(_request: Request, exc: DomainError) -> JSONResponse:
+    headers = {"WWW-Authenticate": "Bearer"} if isinstance(exc, errors.Unauthorized) else None
+    return JSONResponse({"detail": str(exc)}, status_code=status_of(exc), headers=headers)
+
+
+async def validation_error(_request: Request, exc: RequestValidationError) -> JSONResponse:
+    """Pydantic's list of problems as one sentence in `detail` (the list stays in `errors`)."""
+    problems = [f"{'.'.join(str(p) for p in e['loc'] if p != 'body')}: {e['msg']}" for e in exc.errors()]
+    body = {"detail": "; ".join(problems) or "invalid request",
+            "errors": [{"loc": list(e["loc"]), "msg": e["msg"]} for e in exc.errors()]}
+    return JSONResponse(body, status_code=422)
+
+
+async def unstorable_value(_request: Request, exc: DataError) -> JSONResponse:
+    """A value the database refuses (out of range, NUL in text) that validation let through."""
+    reason = str(getattr(exc, "orig", exc)).splitlines()[0]
+    return JSONResponse({"detail": f"a value cannot be stored: {reason}"}, status_code=422)
+
+
+def install(app: FastAPI) -> None:
+    app.add_exception_handler(DomainError, domain_error)  # type: ignore[arg-type]
+    app.add_exception_handler(RequestValidationError, validation_error)  # type: ignore[arg-type]
+    app.add_exception_handler(DataError, unstorable_value)  # type: ignore[arg-type]

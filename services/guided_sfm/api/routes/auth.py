@@ -1,0 +1,24 @@
+"""Bearer tokens for username + password (OAuth2 password form)."""
+
+from typing import Annotated
+
+from fastapi import APIRouter, Depends
+from fastapi.security import OAuth2PasswordRequestForm
+
+from guided_sfm.api import security
+from guided_sfm.api.deps import SessionDep, SettingsDep
+from guided_sfm.api.schemas import TokenOut
+from guided_sfm.db import queries
+from guided_sfm.errors import Unauthorized
+
+router = APIRouter(prefix="/auth", tags=["auth"])
+
+
+@router.post("/token", response_model=TokenOut)
+def token(form: Annotated[OAuth2PasswordRequestForm, Depends()], session: SessionDep,
+          settings: SettingsDep) -> TokenOut:
+    user = queries.user_by_name(session, form.username) if "\x00" not in form.username else None
+    if not security.verify_password(form.password, user.password_hash if user else None):
+        raise Unauthorized("wrong username or password")
+    return TokenOut(access_token=security.issue_token(user.id, settings.secret_key or "",
+                                                      settings.token_minutes))

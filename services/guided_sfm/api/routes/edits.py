@@ -1,0 +1,85 @@
+"""Edit sets: drafts of camera moves and pair deletions on a base version; preview and apply."""
+
+from typing import Annotated
+
+from fastapi import APIRouter, Header, Response
+
+from guided_sfm import jobs
+from guided_sfm.actions import edit_sets, version_data
+from guided_sfm.api.deps import (
+    CurrentUser,
+    EditorProject,
+    PathId,
+    SessionDep,
+    StoreDep,
+    SubmitDep,
+    ViewerProject,
+)
+from guided_sfm.api.schemas import ApplyIn, EditSetIn, EditSetOut, JobOut, PreviewOut
+from guided_sfm.db import queries
+from guided_sfm.db.models import EditSetRow, Job, Project, Version
+from guided_sfm.errors import Conflict, NotFound
+
+router = APIRouter(prefix="/projects/{pid}/edits", tags=["edits"])
+
+
+def out(row: EditSetRow, response: Response | None = None) -> EditSetOut:
+    if response is not None:
+        response.headers["ETag"] = f'"{row.revision}"'
+    return EditSetOut(id=row.id, revision=row.revision, updated_at=row.updated_at,
+                      updated_by=row.updated_by.username if row.updated_by else None,
+                      **{k: v for k, v in row.body.items() if k in EditSetIn.model_fields})
+
+
+def _row(session: SessionDep, project: Project, eid: PathId) -> EditSetRow:
+    row = queries.edit_set_in_project(session, project.id, eid)
+    if row is None:
+        raise NotFound(f"edit set {eid} not found in project {project.id}")
+    return row
+
+
+@router.post("", status_code=201, response_model=EditSetOut)
+def create(body: EditSetIn, project: EditorProject, session: SessionDep, user: CurrentUser,
+           response: Response) -> EditSetOut:
+    return out(edit_sets.create(session, project, body.model_dump(), user.id), response)
+
+
+@router.get("", response_model=list[EditSetOut])
+def list_edit_sets(project: ViewerProject, session: SessionDep) -> list[EditSetOut]:
+    return [out(row) for row in queries.edit_sets(session, project.id)]
+
+
+@router.get("/{eid}", response_model=EditSetOut)
+def read(eid: PathId, project: ViewerProject, session: SessionDep, response: Response) -> EditSetOut:
+    return out(_row(session, project, eid), response)
+
+
+@router.put("/{eid}", response_model=EditSetOut)
+def replace(eid: PathId, body: EditSetIn, project: EditorProject, session: SessionDep, user: CurrentUser,
+            response: Response, if_match: Annotated[str | None, Header()] = None) -> EditSetOut:
+    row = _row(session, project, eid)
+    return out(edit_sets.replace(session, project, row, body.model_dump(), if_match, user.id), response)
+
+
+@router.delete("/{eid}", status_code=204)
+def delete(eid: PathId, project: EditorProject, session: SessionDep) -> Response:
+    edit_sets.delete(session, _row(session, project, eid))
+    return Response(status_code=204)
+
+
+@router.get("/{eid}/preview", response_model=PreviewOut)
+def preview(eid: PathId, project: ViewerProject, session: SessionDep, store: StoreDep) -> dict:
+    row = _row(session, project, eid)
+    return version_data.preview(session, store, row, session.get(Version, row.base_version_id))
+
+
+@router.post("/{eid}/apply", status_code=202, response_model=JobOut)
+def apply(eid: PathId, project: EditorProject, session: SessionDep, user: CurrentUser, submit: SubmitDep,
+          body: ApplyIn | None = None) -> Job:
+    row = _row(session, project, eid)
+    if row.base_version_id != project.head_version_id:
+        raise Conflict(f"edit set {eid} is based on version {row.base_version_id}, but the head is "
+                       f"version {project.head_version_id}; rebase it first")
+    params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body,
+              "remap": (body or ApplyIn()).remap}
+    return jobs.queue(session, submit, project, "apply", user.id, params, row.base_version_id)

@@ -1,0 +1,48 @@
+"""Projects: create, list (those with a role), read, delete (owner, not while a job runs)."""
+
+from fastapi import APIRouter, Response
+
+from guided_sfm.api.deps import CurrentUser, OwnerProject, SessionDep, StoreDep, ViewerProject
+from guided_sfm.api.schemas import ProjectCreate, ProjectOut
+from guided_sfm.db import queries
+from guided_sfm.db.models import Membership, Project
+from guided_sfm.errors import Conflict
+
+router = APIRouter(prefix="/projects", tags=["projects"])
+
+
+def out(project: Project, role: str | None) -> ProjectOut:
+    return ProjectOut.model_validate(project).model_copy(update={"role": role})
+
+
+@router.post("", status_code=201, response_model=ProjectOut)
+def create_project(body: ProjectCreate, session: SessionDep, user: CurrentUser) -> ProjectOut:
+    project = Project(name=body.name, description=body.description, created_by=user.id)
+    session.add(project)
+    session.flush()
+    session.add(Membership(project_id=project.id, user_id=user.id, role="owner"))
+    session.commit()
+    return out(project, "owner")
+
+
+@router.get("", response_model=list[ProjectOut])
+def list_projects(session: SessionDep, user: CurrentUser) -> list[ProjectOut]:
+    return [out(p, queries.role_of(session, p.id, user.id)) for p in queries.projects_of(session, user.id)]
+
+
+@router.get("/{pid}", response_model=ProjectOut)
+def get_project(project: ViewerProject, session: SessionDep, user: CurrentUser) -> ProjectOut:
+    return out(project, queries.role_of(session, project.id, user.id))
+
+
+@router.delete("/{pid}", status_code=204)
+def delete_project(project: OwnerProject, session: SessionDep, store: StoreDep) -> Response:
+    if queries.active_job(session, project.id) is not None:
+        raise Conflict(f"project {project.id} has a queued or running job; cancel it first")
+    project_id = project.id
+    project.head_version_id = None  # the head points into the versions being deleted
+    session.flush()
+    session.delete(project)
+    session.commit()
+    store.delete_project(project_id)
+    return Response(status_code=204)

@@ -1,0 +1,180 @@
+"""Pydantic request (…In/…Create) and response (…Out) models of the REST contract v1."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Annotated, Any, Literal
+
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt
+
+Role = Literal["viewer", "editor", "owner"]
+
+
+def _storable(text: str) -> str:
+    if "\x00" in text:
+        raise ValueError("must not contain NUL characters")
+    return text
+
+
+Text = Annotated[str, AfterValidator(_storable)]  # Postgres text cannot hold NUL
+DbId = Annotated[StrictInt, Field(ge=1, le=2**31 - 1)]  # an id the SQL integer columns can hold
+
+
+class Out(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+
+class In(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class UserCreate(In):
+    username: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.@-]+$")
+    password: Text = Field(min_length=8, max_length=256)
+
+
+class UserOut(Out):
+    id: int
+    username: str
+
+
+class TokenOut(Out):
+    access_token: str
+    token_type: str = "bearer"
+
+
+class ProjectCreate(In):
+    name: Text = Field(min_length=1, max_length=200)
+    description: Text = Field(default="", max_length=10_000)
+
+
+class ProjectOut(Out):
+    id: int
+    name: str
+    description: str
+    head_version_id: int | None
+    created_at: datetime
+    role: Role | None = None
+
+
+class MemberIn(In):
+    role: Role
+
+
+class MemberOut(Out):
+    username: str
+    role: Role
+
+
+class ImageOut(Out):
+    id: int
+    name: str
+    width: int
+    height: int
+    seq: int
+
+
+class ReconstructIn(In):
+    camera_model: str | None = None
+    matcher: Literal["exhaustive", "sequential"] | None = None
+    mapper: Literal["incremental", "global"] | None = None
+
+
+class JobOut(Out):
+    id: int
+    project_id: int
+    kind: str
+    state: str
+    stage: str
+    progress: float
+    message: str
+    error: str | None
+    version_id: int | None
+    base_version_id: int | None
+    cancel_requested: bool
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+
+
+class StatsOut(Out):
+    num_images: int = 0
+    num_registered: int = 0
+    num_models: int = 0
+    num_pairs: int = 0
+    num_points: int = 0
+
+
+class VersionOut(Out):
+    id: int
+    parent_id: int | None
+    kind: str
+    author: str | None
+    message: str
+    created_at: datetime
+    stats: StatsOut
+    is_head: bool = False
+
+
+class PairOut(Out):
+    image_id1: int
+    image_id2: int
+    num_inliers: int
+
+
+class CameraEditIn(In):
+    image_id: DbId
+    x: float
+    y: float
+    yaw_deg: float
+    fov_deg: float | None = Field(default=None, gt=0, lt=180)
+    range: float | None = Field(default=None, gt=0)
+
+
+class EditSetIn(In):
+    base_version_id: DbId
+    cameras: list[CameraEditIn] = Field(default_factory=list)
+    delete_pairs: list[tuple[DbId, DbId]] = Field(default_factory=list)
+    flags: list[DbId] = Field(default_factory=list)
+    rule: Literal["default", "paper"] = "default"
+    tolerances: dict[Text, float] = Field(default_factory=dict)
+
+
+class EditSetOut(Out):
+    id: int
+    revision: int
+    base_version_id: int
+    cameras: list[dict[str, Any]]
+    delete_pairs: list[list[int]]
+    flags: list[int]
+    rule: str
+    tolerances: dict[str, float]
+    updated_by: str | None
+    updated_at: datetime
+
+
+class ReasonOut(Out):
+    pair: list[int]
+    tests: list[str]
+
+
+class PreviewOut(Out):
+    pairs_to_delete: list[list[int]]
+    components_before: int
+    components_after: int
+    removed_by_test: dict[str, int]
+    reasons: list[ReasonOut]
+
+
+class ApplyIn(In):
+    remap: bool = True
+
+
+class CompareCameraOut(Out):
+    image_id: int | None
+    moved: float | None = None
+    rotated_deg: float | None = None
+
+
+class CompareOut(Out):
+    cameras: list[CompareCameraOut]

@@ -1,0 +1,39 @@
+"""Password hashing (pwdlib, Argon2) and bearer tokens (HS256 JWT carrying the user id)."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+
+import jwt
+from pwdlib import PasswordHash
+
+from guided_sfm.errors import Unauthorized
+
+ALGORITHM = "HS256"
+_hasher = PasswordHash.recommended()
+# Verifying against this when the user does not exist keeps the timing the same.
+_DUMMY_HASH = _hasher.hash("not a password")
+
+
+def hash_password(password: str) -> str:
+    return _hasher.hash(password)
+
+
+def verify_password(password: str, password_hash: str | None) -> bool:
+    if password_hash is None:
+        _hasher.verify(password, _DUMMY_HASH)
+        return False
+    return _hasher.verify(password, password_hash)
+
+
+def issue_token(user_id: int, secret: str, minutes: int) -> str:
+    expires = datetime.now(UTC) + timedelta(minutes=minutes)
+    return jwt.encode({"sub": str(user_id), "exp": expires}, secret, algorithm=ALGORITHM)
+
+
+def user_id_from(token: str, secret: str) -> int:
+    try:
+        claims = jwt.decode(token, secret, algorithms=[ALGORITHM], options={"require": ["sub", "exp"]})
+        return int(claims["sub"])
+    except (jwt.PyJWTError, ValueError) as exc:
+        raise Unauthorized("the token is invalid or expired; sign in again") from exc

@@ -1,0 +1,31 @@
+"""Service errors beyond the core's: requests the state of the service refuses (mapped once in api/errors)."""
+
+from guided_sfm.core.errors import DomainError
+
+
+class NotFound(DomainError):
+    """The thing does not exist, or the caller has no role in its project."""
+
+
+class Forbidden(DomainError):
+    """The caller's role does not allow this change."""
+
+
+class Conflict(DomainError):
+    """The request clashes with the current state (a job runs, a newer revision, a taken name)."""
+
+
+class PreconditionRequired(DomainError):
+    """An update needs If-Match with the revision it was based on."""
+
+
+class TooLarge(DomainError):
+    """An upload exceeds the configured limit."""
+
+
+class BadUpload(DomainError):
+    """An upload is not what the route accepts (not an image, corrupt, unsafe zip entry)."""
+
+
+class Unauthorized(DomainError):
+    """No valid credentials."""

@@ -1,0 +1,130 @@
+"""Service settings: one frozen dataclass read from an environ mapping; nothing is built at import."""
+
+from __future__ import annotations
+
+import os
+import secrets
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from urllib.parse import urlsplit
+
+PREFIX = "GUIDED_SFM_"
+DEFAULT_DATA_DIR = "data"  # relative to the working directory, like `serve --data-dir data`
+DATABASE_SCHEMES = ("sqlite", "postgresql")
+BROKER_SCHEMES = ("redis", "rediss", "filesystem", "memory")
+TRUE, FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
+
+
+class SettingsError(ValueError):
+    """An environment variable holds a value the service cannot use."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    data_dir: Path
+    database_url: str
+    broker_url: str
+    threads: int = 2
+    open_signup: bool = True
+    max_upload_mb: int = 1024
+    secret_key: str | None = None
+    token_minutes: int = 7 * 24 * 60
+    sweep_seconds: float = 30.0  # sweeper period
+    heartbeat_seconds: float = 5.0  # a running job touches its row this often
+    stale_seconds: float = 60.0  # a running job silent this long lost its worker
+    requeue_seconds: float = 60.0  # a queued job untouched this long lost its message
+    max_attempts: int = 2  # a job whose worker died runs again until it has started this often
+
+    @classmethod
+    def from_env(cls, environ: Mapping[str, str] | None = None, **overrides: object) -> Settings:
+        """Settings from GUIDED_SFM_* variables; keyword overrides win (e.g. data_dir from a flag)."""
+        env = os.environ if environ is None else environ
+        data_dir = Path(overrides.pop("data_dir", None) or env.get(PREFIX + "DATA_DIR") or DEFAULT_DATA_DIR)
+        data_dir = data_dir.expanduser().absolute()
+        values: dict[str, object] = {
+            "data_dir": data_dir,
+            "database_url": env.get(PREFIX + "DATABASE_URL") or f"sqlite:///{data_dir / 'guided_sfm.db'}",
+            "broker_url": env.get(PREFIX + "BROKER_URL") or "filesystem://",
+            "threads": _int(env, "THREADS", 2),
+            "open_signup": _bool(env, "OPEN_SIGNUP", True),
+            "max_upload_mb": _int(env, "MAX_UPLOAD_MB", 1024),
+            "secret_key": env.get(PREFIX + "SECRET_KEY") or None,
+            "token_minutes": _int(env, "TOKEN_MINUTES", 7 * 24 * 60),
+            "sweep_seconds": _float(env, "SWEEP_SECONDS", 30.0),
+            "heartbeat_seconds": _float(env, "HEARTBEAT_SECONDS", 5.0),
+            "stale_seconds": _float(env, "STALE_SECONDS", 60.0),
+            "requeue_seconds": _float(env, "REQUEUE_SECONDS", 60.0),
+            "max_attempts": _int(env, "MAX_ATTEMPTS", 2),
+        }
+        values.update(overrides)
+        settings = cls(**values)  # type: ignore[arg-type]
+        settings.validate()
+        return settings
+
+    def validate(self) -> None:
+        scheme = urlsplit(self.database_url).scheme.split("+")[0]
+        if scheme not in DATABASE_SCHEMES:
+            raise SettingsError(f"{PREFIX}DATABASE_URL must be sqlite or postgresql, got {scheme!r}")
+        if urlsplit(self.broker_url).scheme not in BROKER_SCHEMES:
+            raise SettingsError(
+                f"{PREFIX}BROKER_URL must be redis:// or filesystem://, got {self.broker_url!r}")
+        if self.threads < 1 or self.max_upload_mb < 1:
+            raise SettingsError(f"{PREFIX}THREADS and {PREFIX}MAX_UPLOAD_MB must be >= 1")
+        if self.secret_key is not None and len(self.secret_key) < 16:
+            raise SettingsError(f"{PREFIX}SECRET_KEY must be at least 16 characters")
+
+    @property
+    def is_sqlite(self) -> bool:
+        return self.database_url.startswith("sqlite")
+
+    @property
+    def artifacts_dir(self) -> Path:
+        return self.data_dir / "artifacts"
+
+    @property
+    def broker_dir(self) -> Path:
+        """Folder of the filesystem broker: the URL's path if it has one, else under the data dir."""
+        path = urlsplit(self.broker_url).path
+        return Path(path) if path not in ("", "/") else self.data_dir / "broker"
+
+    @property
+    def max_upload_bytes(self) -> int:
+        return self.max_upload_mb * 1024 * 1024
+
+    def with_secret(self) -> Settings:
+        """These settings with a signing key: the configured one, else one kept in the data dir."""
+        if self.secret_key:
+            return self
+        path = self.data_dir / "secret_key"
+        if not path.is_file():
+            self.data_dir.mkdir(parents=True, exist_ok=True)
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "w") as handle:
+                handle.write(secrets.token_urlsafe(48))
+        return replace(self, secret_key=path.read_text().strip())
+
+
+def _int(env: Mapping[str, str], name: str, default: int) -> int:
+    raw = env.get(PREFIX + name)
+    try:
+        return default if raw in (None, "") else int(raw)
+    except ValueError as exc:
+        raise SettingsError(f"{PREFIX}{name} must be an integer, got {raw!r}") from exc
+
+
+def _float(env: Mapping[str, str], name: str, default: float) -> float:
+    raw = env.get(PREFIX + name)
+    try:
+        return default if raw in (None, "") else float(raw)
+    except ValueError as exc:
+        raise SettingsError(f"{PREFIX}{name} must be a number, got {raw!r}") from exc
+
+
+def _bool(env: Mapping[str, str], name: str, default: bool) -> bool:
+    raw = (env.get(PREFIX + name) or "").strip().lower()
+    if not raw:
+        return default
+    if raw in TRUE or raw in FALSE:
+        return raw in TRUE
+    raise SettingsError(f"{PREFIX}{name} must be true or false, got {raw!r}")

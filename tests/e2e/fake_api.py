@@ -1,0 +1,130 @@
+"""A small in-memory stand-in for the REST contract, answered through Playwright's request routing,
+for browser tests of editor details the rendered sample cannot show (an unregistered image, a split
+match graph, an older version). It serves frontend/ from disk too, so no server runs."""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+from pathlib import Path
+from urllib.parse import urlsplit
+
+FRONTEND = Path(__file__).resolve().parents[2] / "frontend"
+ORIGIN = "http://gsfm.test"
+PNG = base64.b64decode("iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNkaPhfDwAEhQGAhKmM"
+                       "IQAAAABJRU5ErkJggg==")  # one grey pixel
+TYPES = {".html": "text/html", ".js": "text/javascript", ".css": "text/css"}
+CUT_DISTANCE = 2.5  # the fake rule: a moved camera loses the pairs to cameras farther than this
+
+
+def camera(image_id: int, x: float | None, registered: bool = True) -> dict:
+    placed = registered and x is not None
+    return {"image_id": image_id, "name": f"{image_id:04d}.jpg", "seq": image_id - 1,
+            "registered": registered, "model": 0 if placed else None,
+            "x": x if placed else None, "y": 0.0 if placed else None, "yaw_deg": 90.0 if placed else None,
+            "fov_deg": 60.0, "range": 2.0 if placed else None,
+            "center": [x, 0.0, 0.0] if placed else None, "qvec": [1.0, 0.0, 0.0, 0.0] if placed else None}
+
+
+class FakeApi:
+    """Project 1 with five cameras in a row (ids 1-5), one unregistered image (6), seven pairs."""
+
+    def __init__(self, head: int = 1) -> None:
+        self.cameras = [camera(i, float(i - 1)) for i in range(1, 6)] + [camera(6, None, False)]
+        self.pairs = {(1, 2): 100, (2, 3): 80, (3, 4): 120, (4, 5): 60, (1, 3): 30, (2, 4): 40, (3, 5): 50}
+        self.head = head
+        self.edit: dict | None = None
+        self.log: list[tuple[str, str]] = []
+
+    def install(self, page) -> None:
+        page.route(f"{ORIGIN}/**", self.handle)
+
+    def handle(self, route, request) -> None:
+        path = urlsplit(request.url).path
+        if not path.startswith("/api/v1/"):
+            file = FRONTEND / (path.lstrip("/") or "index.html")
+            route.fulfill(status=200, body=file.read_bytes(),
+                          content_type=TYPES.get(file.suffix, "text/plain"))
+            return
+        self.log.append((request.method, path))
+        status, body = self.answer(request.method, path.removeprefix("/api/v1"), request)
+        if isinstance(body, bytes):
+            route.fulfill(status=status, body=body, content_type="image/png")
+        else:
+            revision = body.get("revision") if isinstance(body, dict) else None
+            headers = {"ETag": f'"{revision}"'} if revision is not None else {}
+            route.fulfill(status=status, body=json.dumps(body), content_type="application/json",
+                          headers=headers)
+
+    def answer(self, method: str, path: str, request) -> tuple[int, object]:
+        project = {"id": 1, "name": "fake", "description": "", "head_version_id": self.head,
+                   "created_at": "2026-01-01T00:00:00Z", "role": "owner"}
+        routes = {
+            ("POST", "/auth/token"): lambda: {"access_token": "fake", "token_type": "bearer"},
+            ("GET", "/projects"): lambda: [project],
+            ("GET", "/projects/1"): lambda: project,
+            ("GET", "/projects/1/versions"): self.versions,
+            ("GET", "/projects/1/members"): lambda: [{"username": "fake-user", "role": "owner"}],
+            ("GET", "/projects/1/jobs"): lambda: [],
+            ("GET", "/projects/1/edits"): lambda: [self.edit] if self.edit else [],
+            ("GET", "/projects/1/edits/1"): lambda: self.edit,
+            ("GET", "/projects/1/edits/1/preview"): self.preview,
+        }
+        if (method, path) in routes:
+            return 200, routes[(method, path)]()
+        if path.endswith("/scene"):
+            frame = {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0], "up": [0, 0, 1]}
+            return 200, {"frame": frame, "cameras": self.cameras, "models": [{"index": 0, "num_images": 5}],
+                         "points": {"xy": [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)]}}
+        if path.endswith("/pairs"):
+            return 200, [{"image_id1": a, "image_id2": b, "num_inliers": n}
+                         for (a, b), n in self.pairs.items()]
+        if path.endswith("/thumbnail"):
+            return 200, PNG
+        if path == "/projects/1/edits" and method == "POST":
+            self.edit = {**request.post_data_json, "id": 1, "revision": 1, "updated_by": "fake-user",
+                         "updated_at": "2026-01-01T00:00:00Z"}
+            return 201, self.edit
+        if path == "/projects/1/edits/1" and method == "PUT":
+            if request.headers.get("if-match", "").strip('"') != str(self.edit["revision"]):
+                return 409, {"detail": "edit set 1 was saved by someone else"}
+            self.edit = {**self.edit, **request.post_data_json, "revision": self.edit["revision"] + 1}
+            return 200, self.edit
+        return 404, {"detail": f"the fake API has no {method} {path}"}
+
+    def versions(self) -> list[dict]:
+        stats = {"num_images": 6, "num_registered": 5, "num_models": 1, "num_pairs": 7, "num_points": 28}
+        return [{"id": v, "parent_id": v - 1 or None, "kind": "reconstruct" if v == 1 else "apply",
+                 "author": "fake-user", "message": "", "created_at": "2026-01-01T00:00:00Z", "stats": stats}
+                for v in range(self.head, 0, -1)]
+
+    def preview(self) -> dict:
+        """Manual deletions, plus pairs of a moved camera now farther apart than CUT_DISTANCE."""
+        placed = {c["image_id"]: (c["x"], c["y"]) for c in self.cameras if c["x"] is not None}
+        placed.update({c["image_id"]: (c["x"], c["y"]) for c in self.edit["cameras"]})
+        moved = {c["image_id"] for c in self.edit["cameras"]}
+        cut = {tuple(sorted(p)) for p in self.edit["delete_pairs"]}
+        for a, b in self.pairs:
+            if (a in moved or b in moved) and math.dist(placed[a], placed[b]) > CUT_DISTANCE:
+                cut.add((a, b))
+        kept = [p for p in self.pairs if p not in cut]
+        return {"pairs_to_delete": [list(p) for p in sorted(cut)],
+                "components_before": components(self.pairs),
+                "components_after": components(kept, {i for p in self.pairs for i in p}),
+                "removed_by_test": {"fake": len(cut)},
+                "reasons": [{"pair": list(p), "tests": ["fake"]} for p in sorted(cut)]}
+
+
+def components(pairs, images: set[int] | None = None) -> int:
+    """Connected components of the images (default: those in `pairs`) under the pairs."""
+    parent = {i: i for i in images or {i for p in pairs for i in p}}
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    for a, b in pairs:
+        parent[root(a)] = root(b)
+    return len({root(i) for i in parent})

@@ -1,0 +1,136 @@
+"""Editor details in headless Chromium against the in-memory fake of the REST contract (fake_api):
+dropping an unregistered image, FoV/range sliders, flags, the matching panel, the split warning,
+a read-only version and hover links. Fast: no server, no reconstruction."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from playwright.sync_api import expect
+
+from tests.e2e.conftest import shot
+from tests.e2e.fake_api import ORIGIN, FakeApi
+
+pytestmark = pytest.mark.browser
+
+
+def open_fake(page, fake: FakeApi, route: str = "#/p/1") -> None:
+    fake.install(page)
+    page.goto(f"{ORIGIN}/")
+    form = page.locator("#sign-in-form")
+    form.get_by_label("Username").fill("fake-user")
+    form.get_by_label("Password").fill("fake-password")
+    form.get_by_role("button", name="Sign in").click()
+    page.wait_for_selector("body[data-ready=projects]")
+    page.evaluate("r => { location.hash = r; }", route)
+    version = route.split("/v/")[1] if "/v/" in route else str(fake.head)
+    page.wait_for_selector(f"body[data-ready='1/{version}']")
+
+
+def saved(page, fake: FakeApi) -> dict:
+    page.wait_for_selector("#cut-counter[data-state=ready]")
+    return fake.edit
+
+
+def world_to_client(page, x: float, y: float) -> tuple[float, float]:
+    box = page.locator("#scene").bounding_box()
+    cx, cy, scale = map(float, page.get_attribute("#scene", "data-view").split(","))
+    return box["x"] + box["width"] / 2 + (x - cx) * scale, box["y"] + box["height"] / 2 - (y - cy) * scale
+
+
+def test_drop_unregistered_image_sliders_and_flags(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    thumb = page.locator("#strip .thumb[data-id='6']")
+    assert "unregistered" in thumb.get_attribute("class")
+    thumb.drag_to(page.locator("#scene"), target_position={"x": 300, "y": 200})
+    camera = next(c for c in saved(page, fake)["cameras"] if c["image_id"] == 6)
+    box = page.locator("#scene").bounding_box()
+    cx, cy, scale = map(float, page.get_attribute("#scene", "data-view").split(","))
+    assert math.isclose(camera["x"], cx + (300 - box["width"] / 2) / scale, abs_tol=2 / scale)
+    assert math.isclose(camera["y"], cy - (200 - box["height"] / 2) / scale, abs_tol=2 / scale)
+    assert "placed" in thumb.get_attribute("class")
+    assert "6" in page.get_attribute("#scene", "data-moved").split(",")
+
+    page.locator("#strip .thumb[data-id='2']").click()
+    page.locator("#fov-slider").focus()
+    for _ in range(5):
+        page.keyboard.press("ArrowRight")
+    page.locator("#range-slider").focus()
+    page.keyboard.press("End")
+    edit = {c["image_id"]: c for c in saved(page, fake)["cameras"]}
+    assert edit[2]["fov_deg"] == 65 and math.isclose(edit[2]["range"], 4 * 2.0)
+    page.locator("#scene").focus()
+    page.keyboard.press("f")
+    page.keyboard.press("t")
+    assert saved(page, fake)["flags"] == [2]
+
+    start = world_to_client(page, 3.0, 0.0)  # drag camera 4 with the mouse, 60 px to the right
+    scale = float(page.get_attribute("#scene", "data-view").split(",")[2])
+    page.mouse.move(*start)
+    page.mouse.down()
+    for dx in (20, 40, 60):
+        page.mouse.move(start[0] + dx, start[1])
+    page.mouse.up()
+    dragged = next(c for c in saved(page, fake)["cameras"] if c["image_id"] == 4)
+    assert math.isclose(dragged["x"], 3.0 + 60 / scale, abs_tol=1.5 / scale)
+    assert math.isclose(dragged["y"], 0.0, abs_tol=1.5 / scale)
+    assert "flagged" in page.locator("#strip .thumb[data-id='2']").get_attribute("class")
+    assert page.get_attribute("#show-frusta", "aria-pressed") == "true"
+    shot(page, "offline-drop-sliders-flags")
+
+
+def test_matching_panel_deletions_and_split_warning(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='3']").click()
+    page.locator("#matching-panel summary").click()
+    rows = page.locator("#match-list li")
+    expect(rows).to_have_count(4)  # the list is built when the panel opens
+    assert [r.get_attribute("data-pair") for r in rows.all()] == ["3-4", "2-3", "3-5", "1-3"]
+    rows.nth(0).locator("input").check()
+    rows.nth(1).locator("input").check()
+    page.get_by_role("button", name="Delete selected matching").click()
+    assert sorted(saved(page, fake)["delete_pairs"]) == [[2, 3], [3, 4]]
+    assert page.get_attribute("#scene", "data-red-lines") == "2"
+    assert page.locator("#match-list li.deleted").count() == 2
+    page.locator("#scene").focus()
+    page.keyboard.press("m")
+    assert page.get_attribute("#show-matching", "aria-pressed") == "true"
+    assert int(page.get_attribute("#scene", "data-lines")) == 4  # camera 3's four pairs
+    assert page.locator("#split-warning").is_hidden()
+
+    page.locator("#strip .thumb[data-id='5']").click()
+    page.locator("#scene").focus()
+    for _ in range(4):  # 4 x (5 steps of 5% of the range 2) = 2 units away from its partners
+        page.keyboard.press("Shift+ArrowRight")
+    preview = saved(page, fake)
+    assert sorted(c["image_id"] for c in preview["cameras"]) == [5]
+    warning = page.locator("#split-warning")
+    warning.wait_for(state="visible")
+    assert warning.get_attribute("role") == "alert" and "split from 1 into 2" in warning.inner_text()
+    shot(page, "offline-split-warning")
+
+
+def test_read_only_version_and_hover_links(page):
+    fake = FakeApi(head=2)
+    open_fake(page, fake, "#/p/1/v/1")
+    assert "read-only" in page.inner_text("#banner")
+    assert page.get_attribute("#scene", "data-editable") == "false"
+    page.locator("#strip .thumb[data-id='2']").click()
+    page.locator("#scene").focus()
+    page.keyboard.press("ArrowRight")
+    assert "Editing is locked" in page.inner_text("#notice")
+    assert page.get_attribute("#scene", "data-moved") == ""
+    assert not [entry for entry in fake.log if entry[0] in ("POST", "PUT") and "/edits" in entry[1]]
+
+    page.locator("#strip .thumb[data-id='4']").hover()
+    page.wait_for_function("document.querySelector('#scene').dataset.hovered === '4'")
+    page.mouse.move(*world_to_client(page, 2.0, 0.0))  # camera 3 sits at (2, 0)
+    page.wait_for_selector("#strip .thumb[data-id='3'].hovered")
+    page.locator("#versions-panel summary").click()
+    rows = page.locator("#version-list li")
+    expect(rows).to_have_count(2)
+    assert "head" in rows.nth(0).inner_text() and "on screen" in rows.nth(1).inner_text()
+    shot(page, "offline-read-only")

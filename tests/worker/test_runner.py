@@ -1,0 +1,185 @@
+"""run_job in-process against the real DB (savepoint-isolated): reconstruct, apply, import, failures."""
+
+import pytest
+
+from guided_sfm import jobs
+from guided_sfm.actions import runner
+from guided_sfm.db.models import Job, Project, Version
+from tests.factories import make_project, make_version, signup, workspace_zip
+
+
+def upload_dir(client, headers, pid, folder):
+    files = [("files", (p.name, p.read_bytes(), "image/jpeg")) for p in sorted(folder.iterdir())]
+    response = client.post(f"/api/v1/projects/{pid}/images", files=files, headers=headers)
+    assert response.status_code == 201, response.text
+
+
+def job_json(client, headers, job_id):
+    return client.get(f"/api/v1/jobs/{job_id}", headers=headers).json()
+
+
+def test_reconstruct_job_makes_the_head(client, headers_pid, sessions, settings, submitted, tiny_images):
+    headers, pid = headers_pid
+    upload_dir(client, headers, pid, tiny_images / "images")
+    body = {"matcher": "exhaustive"}
+    response = client.post(f"/api/v1/projects/{pid}/reconstruct", json=body, headers=headers)
+    assert response.status_code == 202, response.text
+    job_id = response.json()["id"]
+    assert submitted == [job_id] and response.json()["state"] == "queued"
+    assert client.post(f"/api/v1/projects/{pid}/reconstruct", json={}, headers=headers).status_code == 409
+    assert runner.run_job(sessions, settings, job_id) == "succeeded"
+    job = job_json(client, headers, job_id)
+    assert job["state"] == "succeeded" and job["progress"] == 1.0 and job["version_id"]
+    project = client.get(f"/api/v1/projects/{pid}", headers=headers).json()
+    assert project["head_version_id"] == job["version_id"]
+    versions = client.get(f"/api/v1/projects/{pid}/versions", headers=headers).json()
+    assert versions[0]["stats"]["num_registered"] >= 10 and versions[0]["author"] == "alice"
+    assert runner.run_job(sessions, settings, job_id) is None  # a duplicate message is a no-op
+
+
+@pytest.fixture
+def headers_pid(client):
+    headers = signup(client, "alice")
+    return headers, make_project(client, headers)
+
+
+def test_failed_job_leaves_head_and_no_files(client, headers_pid, session, sessions, settings,
+                                             store_with_version):
+    headers, pid = headers_pid
+    head = store_with_version(pid)
+    edit = {"base_version_id": head, "cameras": []}
+    eid = client.post(f"/api/v1/projects/{pid}/edits", json=edit, headers=headers).json()["id"]
+    job_id = client.post(f"/api/v1/projects/{pid}/edits/{eid}/apply", json={}, headers=headers).json()["id"]
+    job = session.get(Job, job_id)
+    job.params = {**job.params, "body": {"cameras": [{"image_id": 10**6, "x": 0, "y": 0, "yaw_deg": 0}]}}
+    session.commit()
+    assert runner.run_job(sessions, settings, job_id) == "failed"
+    session.expire_all()
+    assert "not part of this version" in session.get(Job, job_id).error
+    assert session.get(Project, pid).head_version_id == head
+    assert session.query(Version).filter_by(project_id=pid).count() == 1
+    assert not list((settings.artifacts_dir / "projects" / str(pid) / "tmp").iterdir())
+
+
+def test_apply_without_remap_prunes_into_a_new_head(client, headers_pid, session, sessions, settings,
+                                                    store_with_version):
+    headers, pid = headers_pid
+    head = store_with_version(pid)
+    images = client.get(f"/api/v1/projects/{pid}/images", headers=headers).json()
+    pairs = client.get(f"/api/v1/projects/{pid}/versions/{head}/pairs", headers=headers).json()
+    cut = [pairs[0]["image_id1"], pairs[0]["image_id2"]]
+    edit = {"base_version_id": head, "cameras": [], "delete_pairs": [cut]}
+    eid = client.post(f"/api/v1/projects/{pid}/edits", json=edit, headers=headers).json()["id"]
+    job_id = client.post(f"/api/v1/projects/{pid}/edits/{eid}/apply", json={"remap": False},
+                         headers=headers).json()["id"]
+    assert runner.run_job(sessions, settings, job_id) == "succeeded"
+    job = job_json(client, headers, job_id)
+    new_url = f"/api/v1/projects/{pid}/versions/{job['version_id']}/pairs"
+    new_pairs = client.get(new_url, headers=headers).json()
+    assert len(new_pairs) == len(pairs) - 1
+    assert cut not in [[p["image_id1"], p["image_id2"]] for p in new_pairs]
+    project = client.get(f"/api/v1/projects/{pid}", headers=headers).json()
+    assert project["head_version_id"] == job["version_id"]
+    assert len(images) == 12
+
+
+def test_cancel_running_job(client, headers_pid, session, sessions, settings, tiny_images, monkeypatch):
+    headers, pid = headers_pid
+    upload_dir(client, headers, pid, tiny_images / "images")
+    job_id = client.post(f"/api/v1/projects/{pid}/reconstruct", json={}, headers=headers).json()["id"]
+    session.get(Job, job_id).cancel_requested = True  # as if the flag was seen by the heartbeat
+    session.commit()
+    original = runner.JobContext
+
+    class Cancelling(original):
+        def __init__(self, *args):
+            super().__init__(*args)
+            self.cancel.cancel()
+
+    monkeypatch.setattr(runner, "JobContext", Cancelling)
+    assert runner.run_job(sessions, settings, job_id) == "cancelled"
+    job = job_json(client, headers, job_id)
+    assert job["state"] == "cancelled" and job["version_id"] is None
+    assert client.get(f"/api/v1/projects/{pid}", headers=headers).json()["head_version_id"] is None
+
+
+def test_import_job(client, headers_pid, sessions, settings, tiny_reconstruction, tiny_images):
+    headers, pid = headers_pid
+    archive = workspace_zip(tiny_reconstruction, tiny_images / "images")
+    files = {"file": ("ws.zip", archive)}
+    response = client.post(f"/api/v1/projects/{pid}/import", files=files, headers=headers)
+    assert response.status_code == 202, response.text
+    assert runner.run_job(sessions, settings, response.json()["id"]) == "succeeded"
+    images = client.get(f"/api/v1/projects/{pid}/images", headers=headers).json()
+    assert [i["seq"] for i in images] == list(range(12))
+    head = client.get(f"/api/v1/projects/{pid}", headers=headers).json()["head_version_id"]
+    scene = client.get(f"/api/v1/projects/{pid}/versions/{head}/scene", headers=headers).json()
+    assert {c["image_id"] for c in scene["cameras"]} == {i["id"] for i in images}
+    again = client.post(f"/api/v1/projects/{pid}/import", files=files, headers=headers)
+    assert again.status_code == 409
+
+
+def test_sweeper_fails_silent_running_jobs_and_resends_lost_ones(client, headers_pid, session, settings):
+    from datetime import timedelta
+
+    from worker import sweeper
+
+    headers, pid = headers_pid
+    job_id = client.post(f"/api/v1/projects/{pid}/reconstruct", json={}, headers=headers).json()["id"]
+    job = session.get(Job, job_id)
+    job.enqueued_at = jobs.now() - timedelta(minutes=5)
+    session.commit()
+    resent = []
+    result = sweeper.sweep(_Reusing(session), settings, resent.append)
+    assert result == {"requeued": [], "failed": [], "resent": [job_id]} and resent == [job_id]
+    for attempt in (1, 2):  # the worker dies twice: re-run once, then failed
+        assert jobs.claim(session, job_id)
+        session.get(Job, job_id).heartbeat_at = jobs.now() - timedelta(minutes=5)
+        session.commit()
+        result = sweeper.sweep(_Reusing(session), settings, resent.append)
+        assert result["requeued" if attempt == 1 else "failed"] == [job_id]
+    session.expire_all()
+    assert session.get(Job, job_id).state == "failed"
+    assert "no heartbeat" in session.get(Job, job_id).error
+
+
+class _Reusing:
+    """A session factory that hands out the test's session (closing it is harmless)."""
+
+    def __init__(self, session):
+        self.session = session
+
+    def __call__(self):
+        return self.session
+
+
+@pytest.fixture
+def store_with_version(session, settings, tiny_reconstruction, tiny_images):
+    from guided_sfm.storage import ArtifactStore
+
+    def make(pid):
+        return make_version(session, ArtifactStore(settings.artifacts_dir), pid, tiny_reconstruction,
+                            tiny_images / "images").id
+
+    return make
+
+
+def test_result_on_a_moved_head_is_kept_as_a_side_version(client, headers_pid, session, settings,
+                                                           store_with_version, tiny_reconstruction):
+    from guided_sfm.actions.context import Produced
+    from guided_sfm.actions.publish import publish
+    from guided_sfm.storage import ArtifactStore, link_tree
+
+    headers, pid = headers_pid
+    job_id = client.post(f"/api/v1/projects/{pid}/reconstruct", json={}, headers=headers).json()["id"]
+    assert jobs.claim(session, job_id)  # based on "no head yet"
+    head = store_with_version(pid)  # meanwhile the head moved (as a restore elsewhere would)
+    store = ArtifactStore(settings.artifacts_dir)
+    with store.staging(pid) as staging:
+        link_tree(tiny_reconstruction, staging / "ws")
+        produced = Produced(staging / "ws", "reconstruct", "reconstructed", None, {"num_images": 12})
+        version = publish(session, store, session.get(Job, job_id), produced)
+    session.expire_all()
+    assert session.get(Project, pid).head_version_id == head != version.id
+    assert "side version" in version.message and "side version" in session.get(Job, job_id).message
+    assert session.get(Job, job_id).state == "succeeded" and session.get(Job, job_id).version_id == version.id

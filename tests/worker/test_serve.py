@@ -1,0 +1,69 @@
+"""`guided-sfm serve`: prints the URL once the API answers, restarts a dead worker, stops on SIGTERM."""
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def children(pid: int) -> dict[str, int]:
+    """The serve process's children by role ('api' or 'worker')."""
+    found = {}
+    for child in Path(f"/proc/{pid}/task/{pid}/children").read_text().split():
+        command = Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")
+        role = next((part.decode() for part in command if part in (b"api", b"worker")), None)
+        if role:
+            found[role] = int(child)
+    return found
+
+
+def gone(pid: int) -> bool:
+    stat = Path(f"/proc/{pid}/stat")
+    return not stat.exists() or stat.read_text().split()[2] == "Z"
+
+
+def wait_for(condition, timeout: float, what: str):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.3)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def test_serve_supervises_api_and_worker(tmp_path):
+    port = free_port()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("GUIDED_SFM_")}
+    serve = subprocess.Popen([sys.executable, "-m", "guided_sfm.cli", "serve", "--port", str(port),
+                              "--data-dir", str(tmp_path / "data")], env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.DEVNULL, text=True)
+    try:
+        assert serve.stdout.readline().strip() == f"URL: http://127.0.0.1:{port}/"
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/v1/health", timeout=5) as response:
+            assert response.status == 200
+        assert (tmp_path / "data" / "guided_sfm.db").is_file()  # embedded default: SQLite in the data dir
+        first = wait_for(lambda: children(serve.pid).get("worker"), 30, "the worker")
+        os.killpg(first, signal.SIGKILL)
+        second = wait_for(lambda: (children(serve.pid).get("worker") or first) != first
+                          and children(serve.pid)["worker"], 30, "a restarted worker")
+        assert second != first
+        api = children(serve.pid)["api"]
+        serve.send_signal(signal.SIGTERM)
+        assert serve.wait(timeout=60) == 0
+        assert gone(api) and gone(second)
+    finally:
+        if serve.poll() is None:
+            serve.kill()
+            serve.wait()
+        serve.stdout.close()

@@ -1,0 +1,55 @@
+"""The periodic sweep: resend queued jobs whose message was lost; re-run (once) or fail jobs whose
+worker died. It runs as a timer thread in every worker's main process rather than as a beat task:
+beat messages would queue up behind a long job (concurrency 1) and bury the next job's message."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+
+from sqlalchemy.exc import OperationalError
+from sqlalchemy.orm import Session, sessionmaker
+
+from guided_sfm import jobs
+from guided_sfm.db.session import make_sessionmaker, session_scope
+from guided_sfm.settings import Settings
+
+log = logging.getLogger(__name__)
+
+
+def sweep(sessions: sessionmaker[Session], settings: Settings, submit: Callable[[int], None]) -> dict:
+    with session_scope(sessions) as session:
+        requeued, failed = jobs.recover_stale(session, settings.stale_seconds, settings.max_attempts)
+        resend = jobs.lost_messages(session, settings.requeue_seconds)
+    for job_id in requeued + resend:
+        submit(job_id)
+    if requeued or failed or resend:
+        log.warning("sweep: jobs whose worker stopped: requeued %s, failed %s; resent lost messages %s",
+                    requeued, failed, resend)
+    return {"requeued": requeued, "failed": failed, "resent": resend}
+
+
+class Sweeper(threading.Thread):
+    """Calls sweep() now and then every settings.sweep_seconds until stopped."""
+
+    def __init__(self, settings: Settings, submit: Callable[[int], None]) -> None:
+        super().__init__(name="guided-sfm-sweeper", daemon=True)
+        self.settings, self.submit = settings, submit
+        self.stopped = threading.Event()
+
+    def run(self) -> None:
+        sessions = make_sessionmaker(self.settings)
+        try:
+            while True:
+                try:
+                    sweep(sessions, self.settings, self.submit)
+                except (OperationalError, OSError):  # database or broker briefly away: next round
+                    log.warning("sweep failed; retrying in %s s", self.settings.sweep_seconds, exc_info=True)
+                if self.stopped.wait(self.settings.sweep_seconds):
+                    return
+        finally:
+            sessions.kw["bind"].dispose()
+
+    def stop(self) -> None:
+        self.stopped.set()
