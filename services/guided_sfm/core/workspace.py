@@ -21,7 +21,14 @@ from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
 from guided_sfm.core.evidence import Evidence
 from guided_sfm.core.sfm import CancelToken, SfmOptions
-from guided_sfm.core.types import EditSet, PairKey, Progress, TopDownScene, no_progress
+from guided_sfm.core.types import (
+    EditSet,
+    PairKey,
+    Progress,
+    PruneResult,
+    TopDownScene,
+    no_progress,
+)
 
 DATABASE, SPARSE, SCENE, META = "database.db", "sparse", "scene.json", "workspace.json"
 EDITS, PRUNING = "edits.json", "pruning.json"
@@ -30,21 +37,11 @@ STAGE_SPANS = {"extract": (0.0, 0.2), "match": (0.2, 0.75), "map": (0.75, 1.0)}
 
 
 @dataclass(frozen=True)
-class PruneOutcome:
+class PruneOutcome(PruneResult):
     """What a correction round deletes and how the match graph looks before and after."""
 
-    deleted: list[PairKey]
-    reasons: dict[PairKey, tuple[str, ...]]
     components_before: int
     components_after: int
-
-    @property
-    def removed_by_test(self) -> dict[str, int]:
-        counts: dict[str, int] = {}
-        for tests in self.reasons.values():
-            for test in tests:
-                counts[test] = counts.get(test, 0) + 1
-        return counts
 
 
 def require(workspace: Path) -> Path:
