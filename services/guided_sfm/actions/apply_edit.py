@@ -25,10 +25,12 @@ def run(context: JobContext, work: Path) -> Produced:
     edits = parse_edits(ids.edits_body(body), ws.image_ids(base_dir))
     context.progress("prune", 0.0)
     outcome = ws.prune(base_dir, edits, work)
-    if remap:
-        ws.map_again(work, context.images_dir(), context.options(), context.progress, context.cancel)
+    mapped = None
+    if remap:  # warm from the base model unless its guard falls back to a cold re-map
+        mapped = ws.map_again(work, context.images_dir(), context.options(), context.progress,
+                              context.cancel)
     named = [(ids.sql(a), ids.sql(b), outcome.reasons.get((a, b), ())) for a, b in outcome.deleted]
     deleted = [(min(a, b), max(a, b), tests) for a, b, tests in named if a is not None and b is not None]
     message = (f"edit set {job.params.get('edit_set_id')}: deleted {len(deleted)} pairs"
-               + (", mapped again" if remap else ", not mapped again"))
+               + (f"; {mapped.message()}" if mapped else ", not mapped again"))
     return Produced(work, "apply", message, base.id, ws.stats(work), edits=body, deleted_pairs=deleted)
