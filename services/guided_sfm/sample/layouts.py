@@ -139,6 +139,9 @@ def murals(seed: int) -> Layout:
     scene.quads.append(wall_quad((length - 0.01, 3.6, 1.55), 180.0, *end, board, flat=True))
     cabinet = [scene.add_texture(tx.panel(rng, 240, 240)) for _ in range(2)]
     scene.quads.extend(box_quads((length - 0.3, 1.0), (1.2, 0.6, 1.1), 180.0, *cabinet, flat=False))
+    # a free-standing stand gives the turn's views depth beyond the end wall's plane
+    stand = [scene.add_texture(tx.panel(rng, 160, 240)) for _ in range(2)]
+    scene.quads.extend(box_quads((length - 1.5, 4.9), (0.5, 0.6, 1.3), 200.0, *stand, flat=False))
     for y in (0.8, 1.6, 5.4):
         psize = (0.6, 0.85)
         scene.quads.append(wall_quad((length - 0.01, y, 1.8), 180.0, *psize, _poster(scene, rng, psize)))
@@ -156,8 +159,9 @@ def murals(seed: int) -> Layout:
         hang(scene, _poster(scene, rng, psize), x, wall_y, facing, psize, 1.6)
     # out along y = 3.3 facing the left wall, back along y = 2.7 facing the right wall, so no
     # view of the way out shares ground with one of the way back; the turn is walked steadily,
-    # 13 deg a step, facing the end wall from 3.5 m so the floor in front of it stays in view
-    keys = [(1.5, 3.3, 90.0), (21.0, 3.3, 90.0), (22.5, 3.0, 0.0), (21.0, 2.7, -90.0)]
+    # along an arc, 13 deg and 0.35 m a step, facing the end wall from 3 m so the floor in front
+    # of it stays in view
+    keys = [(1.5, 3.3, 90.0), (20.6, 3.3, 90.0), (23.0, 3.0, 0.0), (20.6, 2.7, -90.0)]
     path, sway = walk([*keys, (4.5, 2.7, -90.0)], [23, 7, 7, 19], [12.0, 0.0, 0.0, 12.0])
     return Layout(scene, VGA, poses_along(path, rng, pitch=-12.0, sway=sway))
 
@@ -189,9 +193,12 @@ def office(seed: int) -> Layout:
         scene.quads.append(wall_quad((length - 0.01, y, 1.6), 180.0, *nsize, _poster(scene, rng, nsize)))
     cupboard = [scene.add_texture(tx.panel(rng, 240, 240)) for _ in range(2)]
     scene.quads.extend(box_quads((length - 0.3, 5.6), (1.0, 0.6, 1.2), 180.0, *cupboard, flat=False))
+    # a free-standing filing cabinet gives the turn's views depth beyond the end wall's plane
+    filing = [scene.add_texture(tx.panel(rng, 160, 240)) for _ in range(2)]
+    scene.quads.extend(box_quads((length - 1.4, 1.5), (0.5, 0.6, 1.3), 160.0, *filing, flat=False))
     # out along y = 3.8 facing the left desks, back along y = 3.2 facing the right ones; the turn
-    # is walked steadily, 13 deg a step, facing the end wall from 3 m
-    keys = [(1.0, 3.8, 90.0), (13.5, 3.8, 90.0), (15.0, 3.5, 0.0), (13.5, 3.2, -90.0)]
+    # is walked steadily along an arc, 13 deg and 0.35 m a step, facing the end wall from 2.8 m
+    keys = [(1.0, 3.8, 90.0), (12.8, 3.8, 90.0), (15.2, 3.5, 0.0), (12.8, 3.2, -90.0)]
     path, sway = walk([*keys, (1.5, 3.2, -90.0)], [17, 7, 7, 16], [8.0, 0.0, 0.0, 8.0])
     return Layout(scene, VGA, poses_along(path, rng, pitch=-10.0, sway=sway))
 
