@@ -16,13 +16,13 @@ import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.
 from guided_sfm import sample
 from guided_sfm.core import evaluation, simulated_user, workspace
 from guided_sfm.core.sfm import SfmOptions, set_colmap_verbosity
+from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.core.truth import load_truth
 from guided_sfm.core.types import EditSet
-from guided_sfm.demo import StageClock
 
 
 def run(layout: str, out: Path) -> dict[str, float]:
-    clock = StageClock(lambda stage, fraction: None)
+    clock = StageClock()
     with clock.timed("render"):
         sample.write_sample(out / "sample", layout, seed=0)
     workspace.reconstruct(out / "sample" / "images", out / "ws0", SfmOptions(), clock)

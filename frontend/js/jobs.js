@@ -56,7 +56,8 @@ export class JobStatus {
     const stage = job.stage ? ` · ${job.stage}` : "";
     const why = job.state === "failed" ? job.error ?? job.message : job.message;
     const detail = why ? ` · ${why}` : "";
-    this.text.textContent = `Job ${job.id} (${job.kind}): ${job.state}${stage} · ${percent}%${detail}`;
+    this.text.textContent = `Job ${job.id} (${job.kind}): ${job.state}${stage} · ${percent}%${detail}`
+      + timingText(job.timings);
     this.cancel.hidden = TERMINAL.has(job.state);
   }
 
@@ -73,4 +74,11 @@ export class JobStatus {
       this.showText(`Could not cancel: ${error.message}`);
     }
   }
+}
+
+// " · 42 s (extract 9 s, match 25 s, map 8 s), peak 812 MiB" once the job has ended.
+export function timingText(timings) {
+  if (!timings?.stages?.length) return "";
+  const stages = timings.stages.map((s) => `${s.stage} ${Math.round(s.seconds)} s`).join(", ");
+  return ` · ${Math.round(timings.seconds)} s (${stages}), peak ${timings.peak_mb} MiB`;
 }

@@ -73,15 +73,18 @@ def _options(args: argparse.Namespace):
 
     extra = {"num_threads": args.threads} if getattr(args, "threads", None) else {}
     return SfmOptions(matcher=getattr(args, "matcher", "exhaustive"),
-                      mapper=getattr(args, "mapper", "incremental"), **extra)
+                      mapper=getattr(args, "mapper", "incremental"),
+                      features=getattr(args, "features", "standard"), **extra)
 
 
 def cmd_reconstruct(args: argparse.Namespace) -> None:
     from guided_sfm.core import workspace
+    from guided_sfm.core.stage_clock import StageClock, format_report
 
     with ProgressBar() as bar:
-        workspace.reconstruct(Path(args.images_dir), Path(args.workspace), _options(args), bar)
-    print_table(sorted(workspace.stats(Path(args.workspace)).items()))
+        clock = StageClock(bar)
+        workspace.reconstruct(Path(args.images_dir), Path(args.workspace), _options(args), clock)
+    print_table([*sorted(workspace.stats(Path(args.workspace)).items()), *format_report(clock.report())])
 
 
 def cmd_scene(args: argparse.Namespace) -> None:
@@ -128,12 +131,15 @@ def cmd_prune(args: argparse.Namespace) -> None:
 
 def cmd_map(args: argparse.Namespace) -> None:
     from guided_sfm.core import workspace
+    from guided_sfm.core.stage_clock import StageClock, format_report
 
     with ProgressBar() as bar:
-        report = workspace.map_again(Path(args.workspace), options=_options(args), progress=bar,
+        clock = StageClock(bar)
+        report = workspace.map_again(Path(args.workspace), options=_options(args), progress=clock,
                                      cold=args.cold)
     print_table([("mode", report.mode), ("fallback", report.fallback or "-"),
-                 ("seconds", report.seconds), *sorted(workspace.stats(Path(args.workspace)).items())])
+                 ("seconds", report.seconds), *sorted(workspace.stats(Path(args.workspace)).items()),
+                 *format_report(clock.report())])
 
 
 def cmd_evaluate(args: argparse.Namespace) -> None:
@@ -181,7 +187,10 @@ def build_parser() -> argparse.ArgumentParser:
          [("out_dir",), ("--layout", {"default": None}), ("--seed", {"type": int, "default": 0})])
     sfm_args = [("--matcher", {"choices": ["exhaustive", "sequential"], "default": "exhaustive"}),
                 ("--mapper", {"choices": ["incremental", "global"], "default": "incremental"}),
-                ("--threads", {"type": int, "default": None})]
+                ("--threads", {"type": int, "default": None}),
+                ("--features", {"choices": ["standard", "fast"], "default": "standard",
+                                "help": "fast: fewer SIFT features, 4-5x faster on small renders "
+                                        "(weaker on real photos)"})]
     _add(sub, "reconstruct", cmd_reconstruct, "images -> COLMAP workspace",
          [("images_dir",), ("workspace",), *sfm_args])
     _add(sub, "scene", cmd_scene, "the top-down scene of a workspace",
@@ -190,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
          [("workspace",), ("edits",), ("new_workspace",),
           ("--dry-run", {"action": "store_true"}), ("--json", {"action": "store_true"})])
     _add(sub, "map", cmd_map, "map a workspace's database again",
-         [("workspace",), ("--cold", {"action": "store_true"}), *sfm_args[1:]])
+         [("workspace",), ("--cold", {"action": "store_true"}), *sfm_args[1:3]])
     _add(sub, "evaluate", cmd_evaluate, "the paper's metrics against ground truth",
          [("workspace",), ("--truth", {"required": True}), ("--reference-from", {"default": None}),
           ("--json", {"action": "store_true"})])

@@ -4,49 +4,14 @@ prune, map again, and measure each round against the ground truth."""
 from __future__ import annotations
 
 import tempfile
-import time
-from contextlib import contextmanager
 from pathlib import Path
 
 from guided_sfm import sample
 from guided_sfm.core import evaluation, simulated_user, workspace
 from guided_sfm.core.sfm import SfmOptions
+from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.core.truth import load_truth
 from guided_sfm.core.types import EditSet, Progress, no_progress
-
-
-class StageClock:
-    """Seconds spent per stage, from the progress reports and explicit timed blocks."""
-
-    def __init__(self, progress: Progress) -> None:
-        self.progress = progress
-        self.seconds: dict[str, float] = {}
-        self._stage, self._since = "", 0.0
-
-    def __call__(self, stage: str, fraction: float) -> None:
-        now = time.perf_counter()
-        if stage != self._stage:
-            self._stop(now)
-            self._stage, self._since = stage, now
-        self.progress(stage, fraction)
-
-    def _stop(self, now: float) -> None:
-        if self._stage:
-            self.seconds[self._stage] = self.seconds.get(self._stage, 0.0) + now - self._since
-        self._stage = ""
-
-    @contextmanager
-    def timed(self, stage: str):
-        self._stop(time.perf_counter())
-        start = time.perf_counter()
-        yield
-        self._stop(time.perf_counter())
-        self.seconds[stage] = self.seconds.get(stage, 0.0) + time.perf_counter() - start
-
-    def take(self) -> dict[str, float]:
-        self._stop(time.perf_counter())
-        taken, self.seconds = {k: round(v, 1) for k, v in self.seconds.items()}, {}
-        return taken
 
 
 def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1,

@@ -55,9 +55,10 @@ def claim(session: Session, job_id: int) -> bool:
 
 
 def finish(session: Session, job_id: int, state: str, *, message: str = "", error: str | None = None,
-           version_id: int | None = None) -> bool:
+           version_id: int | None = None, timings: dict[str, Any] | None = None) -> bool:
     """running -> succeeded/failed/cancelled; False (nothing changed) if someone already ended it."""
-    values: dict[str, Any] = {"state": state, "finished_at": now(), "stage": state, "error": error}
+    values: dict[str, Any] = {"state": state, "finished_at": now(), "stage": state, "error": error,
+                              "timings": timings}
     if message:
         values["message"] = message
     if version_id is not None:

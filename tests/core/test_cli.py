@@ -64,3 +64,15 @@ def test_scene_png_after_pycolmap_import_does_not_crash(tiny_workspace, tmp_path
     """Regression guard: Pillow saving a PNG after pycolmap was imported aborted the process."""
     run("scene", tiny_workspace, "--png", tmp_path / "scene.png", check=True)
     assert (tmp_path / "scene.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_map_reports_each_stage_with_its_time_and_peak_memory(tiny_workspace, tmp_path):
+    (tmp_path / "e.json").write_text(json.dumps({"cameras": []}))
+    run("prune", tiny_workspace, tmp_path / "e.json", tmp_path / "new", check=True)
+    lines = run("map", tmp_path / "new", check=True).stdout.splitlines()
+    # rows such as "time map    1.2 s, peak 412 MiB"
+    times = {" ".join(line.split()[:2]): line.split()[2:] for line in lines if line.startswith("time ")}
+    assert {"time map", "time total"} <= set(times)
+    seconds, _, _, peak, unit = times["time total"]
+    assert float(seconds) > 0 and unit == "MiB"
+    assert int(peak) > 50  # pycolmap and numpy alone hold more than 50 MiB

@@ -19,7 +19,13 @@ def drift(before: Path, after: Path, skip: frozenset[int] = frozenset()) -> tupl
     models = workspace.load_models(after)
     rows = [r for r in colmap_model.compare_models(workspace.load_models(before)[0], models[0])
             if r["image_id"] not in skip and r["moved"] is not None]
+    assert rows, (f"no camera of {after.name} aligns with {before.name}: models "
+                  f"{sizes(before)} -> {sizes(after)}")
     return (max(r["rotated_deg"] for r in rows), max(r["moved"] for r in rows) / extent, len(models))
+
+
+def sizes(workspace_dir: Path) -> list[int]:
+    return [model.num_reg_images() for model in workspace.load_models(workspace_dir)]
 
 
 def correction_round(base: Path, out: Path, edits: EditSet) -> Path:
@@ -44,6 +50,7 @@ def nudged(base: Path, share: float) -> EditSet:
 def test_lund_round_that_moves_nothing_or_one_camera_does_no_harm(tmp_path):
     base = tmp_path / "round0"
     workspace.reconstruct(LUND, base)
+    assert sizes(base)[0] >= 25, f"COLMAP itself failed on Lund: models {sizes(base)}"
     unmoved = correction_round(base, tmp_path / "same", EditSet(rule="default"))
     turn, shift, models = drift(base, unmoved)
     assert models <= len(workspace.load_models(base))  # no split (a warm map may drop a stray one)

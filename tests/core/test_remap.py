@@ -4,8 +4,8 @@ import hashlib
 
 import pytest
 
-from guided_sfm.core import remap, workspace
-from guided_sfm.core.errors import Cancelled
+from guided_sfm.core import remap, sfm, workspace
+from guided_sfm.core.errors import Cancelled, EmptyModel
 from guided_sfm.core.sfm import CancelToken
 from guided_sfm.core.types import CameraEdit, EditSet
 
@@ -54,6 +54,26 @@ def test_warm_remap_falls_back_to_cold_when_a_camera_cannot_return(tiny_workspac
     report = workspace.map_again(new, options=TINY_OPTIONS)
     assert report.mode == "cold" and "registered" in report.fallback
     assert "fell back to a cold re-map" in report.message()
+
+
+def test_warm_result_is_kept_when_the_cold_fallback_does_worse(tiny_workspace, tmp_path, monkeypatch):
+    # Forced here: the guard rejects the warm result and the cold map registers nothing.
+    real_map = sfm.map_database
+
+    def cold_registers_nothing(*args, input_model=None, **kwargs):
+        if input_model is None:
+            raise EmptyModel("mapping registered no images")
+        return real_map(*args, input_model=input_model, **kwargs)
+
+    monkeypatch.setattr(remap, "warm_result_problem", lambda *args: "forced by the test")
+    monkeypatch.setattr(sfm, "map_database", cold_registers_nothing)
+    edits = _near_edit(workspace.load_scene(tiny_workspace))
+    new = tmp_path / "next"
+    workspace.prune(tiny_workspace, edits, new)
+    report = workspace.map_again(new, options=TINY_OPTIONS)
+    assert report.mode == "warm" and report.fallback == "forced by the test"
+    assert "cold re-map did worse still" in report.message()
+    assert workspace.stats(new)["num_registered"] == workspace.stats(tiny_workspace)["num_registered"]
 
 
 def test_cancelled_warm_remap_leaves_the_workspace_untouched(tiny_workspace, tmp_path):

@@ -197,6 +197,8 @@ def test_guided_correction_loop(page, server, sample_project):
     job = server.get(f"/jobs/{page.get_attribute('#status', 'data-job-id')}")
     new = job["version_id"]
     assert job["kind"] == "apply" and server.get(f"/projects/{pid}")["head_version_id"] == new
+    stages = [s["stage"] for s in job["timings"]["stages"]]
+    assert "map" in stages and f"peak {job['timings']['peak_mb']} MiB" in page.text_content("#job-text")
     page.wait_for_function("v => document.querySelector('#scene').dataset.versionId === v", arg=str(new))
     assert canvas_data(page, "editable") == "true"
 

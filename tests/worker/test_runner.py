@@ -30,6 +30,10 @@ def test_reconstruct_job_makes_the_head(client, headers_pid, sessions, settings,
     assert runner.run_job(sessions, settings, job_id) == "succeeded"
     job = job_json(client, headers, job_id)
     assert job["state"] == "succeeded" and job["progress"] == 1.0 and job["version_id"]
+    stages = {s["stage"]: s for s in job["timings"]["stages"]}
+    assert {"extract", "match", "map"} <= set(stages)
+    assert all(s["seconds"] > 0 and s["peak_mb"] > 0 for s in stages.values())
+    assert job["timings"]["seconds"] >= sum(s["seconds"] for s in stages.values()) - 0.1
     project = client.get(f"/api/v1/projects/{pid}", headers=headers).json()
     assert project["head_version_id"] == job["version_id"]
     versions = client.get(f"/api/v1/projects/{pid}/versions", headers=headers).json()
@@ -56,6 +60,7 @@ def test_failed_job_leaves_head_and_no_files(client, headers_pid, session, sessi
     assert runner.run_job(sessions, settings, job_id) == "failed"
     session.expire_all()
     assert "not part of this version" in session.get(Job, job_id).error
+    assert session.get(Job, job_id).timings is not None  # a failed job says where its time went
     assert session.get(Project, pid).head_version_id == head
     assert session.query(Version).filter_by(project_id=pid).count() == 1
     assert not list((settings.artifacts_dir / "projects" / str(pid) / "tmp").iterdir())

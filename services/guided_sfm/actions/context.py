@@ -56,3 +56,4 @@ class Produced:
     deleted_pairs: list[tuple[int, int, tuple[str, ...]]] = field(default_factory=list)  # REST ids
     new_images: list[NewImage] = field(default_factory=list)  # import: files in `images_from`
     images_from: Path | None = None
+    timings: dict[str, Any] | None = None  # StageClock.report() of the job, stored on its row

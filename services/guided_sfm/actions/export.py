@@ -6,7 +6,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from guided_sfm.core import workspace as ws
+from guided_sfm.core import exports
 from guided_sfm.core.errors import InvalidInput
 from guided_sfm.db.models import Version
 from guided_sfm.storage import ArtifactStore
@@ -23,7 +23,7 @@ def export(store: ArtifactStore, version: Version, fmt: str) -> tuple[Path, str,
     os.close(handle)
     out = Path(name)
     try:
-        writer = ws.export_colmap_zip if fmt == "colmap" else ws.export_ply
+        writer = exports.export_colmap_zip if fmt == "colmap" else exports.export_ply
         writer(store.version_dir(version.path), out)
     except BaseException:
         out.unlink(missing_ok=True)

@@ -30,7 +30,8 @@ def publish(session: Session, store: ArtifactStore, job: Job, produced: Produced
             message += (f"; kept as a side version because the head moved from version "
                         f"{job.base_version_id} to {project.head_version_id} while the job ran")
             version.message = message
-        if not jobs.finish(session, job.id, "succeeded", message=message, version_id=version.id):
+        if not jobs.finish(session, job.id, "succeeded", message=message, version_id=version.id,
+                           timings=produced.timings):
             raise Conflict(f"job {job.id} was ended by someone else before it could publish")
         session.commit()
         return version

@@ -16,6 +16,7 @@ from guided_sfm.actions.context import JobContext, Produced
 from guided_sfm.actions.publish import publish
 from guided_sfm.core.errors import Cancelled, DomainError
 from guided_sfm.core.sfm import CancelToken
+from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.db.models import Job
 from guided_sfm.db.session import session_scope
 from guided_sfm.settings import Settings
@@ -71,27 +72,29 @@ def run_job(sessions: sessionmaker[Session], settings: Settings, job_id: int) ->
 
 def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: CancelToken) -> str:
     store = ArtifactStore(settings.artifacts_dir)
-    context = JobContext(settings, store, sessions, job, jobs.Reporter(sessions, job.id), token)
+    clock = StageClock(jobs.Reporter(sessions, job.id))
+    context = JobContext(settings, store, sessions, job, clock, token)
     try:
         with store.staging(job.project_id, prefix=f"job-{job.id}-") as work:
             produced = ACTIONS[job.kind](context, work / "workspace")
             token.check()  # a cancel that arrived after the last step still wins
+            produced.timings = clock.report()
             with session_scope(sessions) as session:
                 version = publish(session, store, job, produced)
-        log.info("job %s (%s) produced version %s", job.id, job.kind, version.id)
+        log.info("job %s (%s) produced version %s; %s", job.id, job.kind, version.id, produced.timings)
         return "succeeded"
     except Cancelled:
-        return _end(sessions, job.id, "cancelled", message="cancelled by request")
+        return _end(sessions, job.id, "cancelled", clock, message="cancelled by request")
     except DomainError as exc:
-        return _end(sessions, job.id, "failed", error=str(exc))
+        return _end(sessions, job.id, "failed", clock, error=str(exc))
     except Exception as exc:  # any crash is recorded on the row; the head stays as it was
         log.exception("job %s crashed", job.id)
-        return _end(sessions, job.id, "failed", error=f"{type(exc).__name__}: {exc}")
+        return _end(sessions, job.id, "failed", clock, error=f"{type(exc).__name__}: {exc}")
 
 
-def _end(sessions: sessionmaker[Session], job_id: int, state: str, **values: str) -> str:
+def _end(sessions: sessionmaker[Session], job_id: int, state: str, clock: StageClock, **values: str) -> str:
     with session_scope(sessions) as session:
-        jobs.finish(session, job_id, state, **values)
+        jobs.finish(session, job_id, state, timings=clock.report(), **values)
         session.commit()
     log.info("job %s ended %s %s", job_id, state, values)
     return state

@@ -95,6 +95,7 @@ class JobOut(Out):
     created_at: datetime
     started_at: datetime | None
     finished_at: datetime | None
+    timings: dict[str, Any] | None = None  # seconds and peak memory (MiB) per stage, once ended
 
 
 class StatsOut(Out):

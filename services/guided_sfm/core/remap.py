@@ -26,16 +26,19 @@ MAX_ERROR_RATIO, MAX_ERROR_GAIN_PX = 1.5, 0.5
 class MapReport:
     """How a workspace was mapped: warm or cold, why a warm start fell back, how long it took."""
 
-    mode: str
-    fallback: str | None
+    mode: str  # the result kept: "warm" or "cold"
+    fallback: str | None  # why the warm result failed its guard (a cold re-map was then tried)
     seconds: float
     num_registered: int
     num_models: int
 
     def message(self) -> str:
         text = f"{self.mode} re-map: {self.num_registered} images in {self.num_models} model(s)"
-        if self.fallback:
+        if self.fallback and self.mode == "cold":
             text += f"; the warm start fell back to a cold re-map ({self.fallback})"
+        elif self.fallback:
+            text += (f"; the warm result looked worse than its base ({self.fallback}), "
+                     "but a cold re-map did worse still")
         return text
 
 
@@ -68,22 +71,37 @@ def map_warm_or_cold(database: Path, image_dir: Path, sparse_dir: Path, base_mod
                      cold: bool = False) -> tuple[list[pycolmap.Reconstruction], MapReport]:
     """Map into sparse_dir: warm from base_models[0] unless cold or there is no base."""
     start = time.perf_counter()
-    fallback = None
+    fallback, warm = None, None
     if not cold and base_models:
         base = base_models[0]
         fix = len(moved) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
         with tempfile.TemporaryDirectory() as tmp:
             without_images(base, moved).write_binary(tmp)
             try:
-                models = sfm.map_database(database, image_dir, sparse_dir, options, progress,
-                                          cancel, input_model=Path(tmp), fix_existing=fix)
-                fallback = warm_result_problem(base, models, len(base_models))
+                warm = sfm.map_database(database, image_dir, sparse_dir, options, progress,
+                                        cancel, input_model=Path(tmp), fix_existing=fix)
+                fallback = warm_result_problem(base, warm, len(base_models))
             except EmptyModel:
                 fallback = "the warm start registered nothing"
         if fallback is None:
-            return models, _report("warm", None, start, models)
-    models = sfm.map_database(database, image_dir, sparse_dir, options, progress, cancel)
+            return warm, _report("warm", None, start, warm)
+    try:
+        models = sfm.map_database(database, image_dir, sparse_dir, options, progress, cancel)
+    except EmptyModel:
+        if warm is None:
+            raise
+        models = []
+    if warm is not None and (not models or _rank(warm) < _rank(models)):
+        # The cold map did worse than the warm one it was meant to replace: keep the warm one.
+        sfm.write_models(warm, sparse_dir)
+        return warm, _report("warm", fallback, start, warm)
     return models, _report("cold", fallback, start, models)
+
+
+def _rank(models: list[pycolmap.Reconstruction]) -> tuple[int, int]:
+    """Better results sort first: more images in the largest model, then fewer models. A tie
+    goes to the cold map: a fresh start cannot inherit the base's fold."""
+    return (-models[0].num_reg_images(), len(models))
 
 
 def _report(mode: str, fallback: str | None, start: float, models: list) -> MapReport:

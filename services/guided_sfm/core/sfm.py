@@ -21,6 +21,11 @@ from guided_sfm.core.types import Progress, no_progress
 log = logging.getLogger(__name__)
 
 MATCHERS = ("exhaustive", "sequential")
+# SIFT (first octave, contrast threshold). "fast" starts at the image's own resolution instead of
+# twice it and lowers the threshold: ~900 instead of ~2,300 features on the 640x480 samples and a
+# 4-5x faster first reconstruction, but the real Lund street walk then registers 4 of 29 images
+# (docs/engine.md), so it is opt-in.
+FEATURES = {"standard": (-1, 0.02 / 3), "fast": (0, 0.003)}
 MAPPERS = ("incremental", "global")
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
 EXTRACT_CHUNK = 8  # images per extraction call: one progress report each
@@ -37,6 +42,7 @@ class SfmOptions:
     # 4096 features keep exhaustive matching of ~50 indoor images near a minute on 2 cores
     # while leaving hundreds of verified inliers per neighbouring pair.
     max_num_features: int = 4096
+    features: str = "standard"  # a key of FEATURES
     sequential_overlap: int = 10
     # COLMAP's default of 30 also rejects initial pairs that triangulate fewer points; forward
     # walks such as the Lund street then never start (2 of 29 images); 15 registers 28 of 29.
@@ -47,6 +53,8 @@ class SfmOptions:
     def __post_init__(self) -> None:
         if self.matcher not in MATCHERS:
             raise InvalidInput(f"unknown matcher {self.matcher!r}; choose one of {MATCHERS}")
+        if self.features not in FEATURES:
+            raise InvalidInput(f"unknown features {self.features!r}; choose one of {tuple(FEATURES)}")
         if self.mapper not in MAPPERS:
             raise InvalidInput(f"unknown mapper {self.mapper!r}; choose one of {MAPPERS}")
         if self.camera_model not in CAMERA_MODELS:
@@ -128,6 +136,7 @@ def extract_features(
     extraction.num_threads = options.num_threads
     extraction.use_gpu = False
     extraction.sift.max_num_features = options.max_num_features
+    extraction.sift.first_octave, extraction.sift.peak_threshold = FEATURES[options.features]
     done = 0
     for group in _groups_by_size(image_dir, names):
         camera_id = -1
@@ -253,14 +262,14 @@ def map_database(
     ordered = sorted(models.values(), key=lambda rec: -rec.num_reg_images())
     if not ordered:
         raise EmptyModel("mapping registered no images: too few verified matches")
-    _write_models(ordered, sparse_dir)
+    write_models(ordered, sparse_dir)
     progress("map", 1.0)
     log.info("Mapped %d model(s); largest has %d images.", len(ordered),
              ordered[0].num_reg_images())
     return ordered
 
 
-def _write_models(models: Sequence[pycolmap.Reconstruction], sparse_dir: Path) -> None:
+def write_models(models: Sequence[pycolmap.Reconstruction], sparse_dir: Path) -> None:
     """Replace sparse_dir with the models as 0, 1, ... (binary COLMAP)."""
     if sparse_dir.exists():
         shutil.rmtree(sparse_dir)

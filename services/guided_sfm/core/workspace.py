@@ -2,14 +2,13 @@
 
 A workspace holds `database.db`, `sparse/0/` (largest model), `sparse/1/`, ..., `scene.json`
 (the top-down scene), `workspace.json` (where its images are, options, parent) and, when it
-came from a correction round, `edits.json` and `pruning.json`.
+came from a correction round, `edits.json` and `pruning.json`. Exports are in `exports.py`.
 """
 
 from __future__ import annotations
 
 import json
 import shutil
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -247,24 +246,6 @@ def stats(workspace: Path) -> dict[str, int]:
         "num_pairs": len(colmap_db.verified_pairs(database)),
         "num_points": models[0].num_points3D() if models else 0,
     }
-
-
-def export_colmap_zip(workspace: Path, out_file: Path) -> None:
-    """A zip of the largest model's cameras.bin, images.bin and points3D.bin."""
-    model_dir = Path(workspace) / SPARSE / "0"
-    if not model_dir.is_dir():
-        raise EmptyModel(f"{workspace} has no sparse model to export")
-    with zipfile.ZipFile(out_file, "w", zipfile.ZIP_DEFLATED) as archive:
-        for name in ("cameras.bin", "images.bin", "points3D.bin"):
-            archive.write(model_dir / name, name)
-
-
-def export_ply(workspace: Path, out_file: Path) -> None:
-    """Binary PLY of the largest model's points with colours."""
-    models = load_models(workspace)
-    if not models:
-        raise EmptyModel(f"{workspace} has no sparse model to export")
-    models[0].export_PLY(out_file)
 
 
 def compare(workspace_a: Path, workspace_b: Path) -> list[dict]:

@@ -160,6 +160,8 @@ class Job(Base):
     version_id: Mapped[int | None] = mapped_column(ForeignKey("versions.id", ondelete="SET NULL"))
     created_by: Mapped[int | None] = mapped_column(ForeignKey("users.id", ondelete="SET NULL"))
     cancel_requested: Mapped[bool] = mapped_column(Boolean, default=False)
+    # {"stages": [{stage, seconds, peak_mb}], "seconds", "peak_mb"} once the job has ended
+    timings: Mapped[dict[str, Any] | None] = mapped_column(JSON)
     attempts: Mapped[int] = mapped_column(Integer, default=0)
     created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
     enqueued_at: Mapped[datetime | None] = mapped_column(Timestamp())
