@@ -1,6 +1,8 @@
 """The default rule on hand-made geometry: carried points, orbits, twins, unpointed cameras,
 planar and pure-rotation pairs, and its tolerances."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -123,6 +125,18 @@ def test_a_camera_without_3d_points_takes_the_frustum_test_only():
     capture.unpointed = {5, 6, 7, 8, 9} | set(range(5))
     far = capture.placement({7}, shift=30.0)  # beyond every frustum
     result = prune_pairs(capture.scene(), far, capture.pairs(), capture.evidence())
+    touching = {p for p in capture.pairs() if 7 in p}
+    assert set(result.deleted) == touching
+    assert {result.reasons[p] for p in touching} == {("frustum",)}
+
+
+def test_cameras_outside_the_largest_model_take_the_frustum_test_only():
+    # The evidence comes from the largest model; a split can leave every tested camera outside it.
+    capture, _, _ = _twins(np.random.default_rng(2))
+    far = capture.placement({7}, shift=30.0)
+    outside = dataclasses.replace(capture.evidence(), rows={}, rotations=np.zeros((0, 3, 3)),
+                                  translations=np.zeros((0, 3)))
+    result = prune_pairs(capture.scene(), far, capture.pairs(), outside)
     touching = {p for p in capture.pairs() if 7 in p}
     assert set(result.deleted) == touching
     assert {result.reasons[p] for p in touching} == {("frustum",)}

@@ -5,7 +5,8 @@ import json
 import pytest
 
 from guided_sfm.core import workspace
-from guided_sfm.core.errors import MissingWorkspace, UnknownImage
+from guided_sfm.core.errors import InvalidInput, MissingWorkspace, UnknownImage
+from guided_sfm.core.sfm import SfmOptions
 from guided_sfm.core.types import CameraEdit, EditSet
 
 from .conftest import TINY_OPTIONS
@@ -79,3 +80,10 @@ def test_unknown_image_and_missing_workspace_are_clear_errors(tiny_workspace, tm
         workspace.preview(tiny_workspace, EditSet([CameraEdit(9999, 0, 0, 0)]))
     with pytest.raises(MissingWorkspace, match="not a workspace"):
         workspace.preview(tmp_path / "nowhere", EditSet())
+
+
+@pytest.mark.parametrize(("option", "value"), [("matcher", "vocab"), ("mapper", "hierarchical"),
+                                               ("features", "tiny"), ("camera_model", "FISHEYE")])
+def test_unknown_sfm_option_names_the_choices(option, value):
+    with pytest.raises(InvalidInput, match=f"unknown .*{value}.*choose one of"):
+        SfmOptions(**{option: value})

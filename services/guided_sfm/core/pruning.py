@@ -137,6 +137,9 @@ def _default_rule(rule_input: RuleInput) -> dict[str, np.ndarray]:
     tested, evidence = rule_input.tested, rule_input.evidence
     if evidence is None:
         return _paper_rule(rule_input)
+    if not evidence.rows:  # no tested camera is in the model (e.g. all in a smaller one)
+        nothing = np.zeros(len(tested), dtype=bool)
+        return {**_paper_rule(rule_input), PLACEMENT: nothing, ROTATION: nothing}
     flat = flat_matches(evidence, tested)
     placement = place(rule_input.scene, rule_input.moved, evidence)
     placed_out, judged, _ = placement_test(flat, placement, evidence, rule_input.tolerances)
