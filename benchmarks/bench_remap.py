@@ -1,0 +1,168 @@
+"""Warm against cold re-mapping after a correction, timed side by side.
+
+Run: .venv/bin/python benchmarks/bench_remap.py [--layouts murals,office,twins,orbit]
+                                                [--sizes 150,300] [--runs 3]
+
+- Sample layouts: render, reconstruct, let the demo's simulated user place the wrong cameras
+  (default rule), prune once; then map the pruned workspace cold and warm, interleaved
+  (cold, warm, cold, warm, ...), each run on a fresh copy made outside the timed region.
+- Synthetic scenes (pycolmap.synthesize_dataset, N images along a path): a cold map is the base
+  version; the edit moves 3 cameras (their pairs are kept: nothing to prune), then the database
+  is mapped cold and warm (from the base without those 3), interleaved the same way.
+Per scene: median seconds of each, the ratio, the registered count and models of both, and the
+rotation MAE (deg) of the moved cameras against the truth for both. The figures depend on the
+machine's load; the ratios compare runs made side by side.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.py)
+import pycolmap
+
+from guided_sfm import sample
+from guided_sfm.core import colmap_model, evaluation, metrics, remap, sfm, simulated_user, workspace
+from guided_sfm.core.sfm import set_colmap_verbosity
+from guided_sfm.core.truth import load_truth
+from guided_sfm.core.types import EditSet
+
+TARGETS = {"layout": 1.8, "synthetic": 5.0}
+MAX_MAE_GAP_DEG = 0.1
+
+
+def rotation_mae(models: list, truth: dict, names: list[str]) -> float:
+    """Mean rotation error (deg) of the named cameras after a similarity on all common centres."""
+    est = colmap_model.camera_poses(models[0])
+    common = sorted(set(est) & set(truth))
+    src, dst = (np.array([poses[n][1] for n in common]) for poses in (est, truth))
+    extent = float(np.linalg.norm(dst.max(axis=0) - dst.min(axis=0)))
+    sim = metrics.align_similarity(src, dst, threshold=0.02 * extent)  # inliers: within 2% of the scene
+    errors = metrics.camera_errors({n: est[n] for n in names if n in est}, truth, sim)
+    return statistics.fmean(e.rotation_deg for e in errors.values()) if errors else float("nan")
+
+
+# A run returns (seconds of the mapping alone, models, MapReport); copies happen outside the clock.
+Run = Callable[[bool], tuple[float, list, remap.MapReport]]
+
+
+def interleaved(runs: int, run: Run, truth: dict, moved_names: list[str]) -> dict:
+    """Per mode: median seconds and the last run's registration, models and MAE (cold, warm, ...)."""
+    seconds: dict[str, list[float]] = {"cold": [], "warm": []}
+    out = {}
+    for _ in range(runs):
+        for mode in seconds:
+            took, models, report = run(mode == "cold")
+            seconds[mode].append(took)
+            out[mode] = {"registered": models[0].num_reg_images(), "models": len(models),
+                         "mae": rotation_mae(models, truth, moved_names), "fallback": report.fallback}
+    for mode in seconds:
+        out[mode]["median"] = statistics.median(seconds[mode])
+    return out
+
+
+def layout_scene(layout: str, runs: int, root: Path) -> dict:
+    """The demo's first correction of a rendered layout, mapped again cold and warm."""
+    sample.write_sample(root / "sample", layout, seed=0)
+    workspace.reconstruct(root / "sample" / "images", root / "ws0")
+    truth = load_truth(root / "sample" / "truth.json")
+    status = evaluation.camera_status(root / "ws0", truth)
+    targets = [n for n in status.wrong + status.unregistered if n in truth.cameras]
+    edits = EditSet(simulated_user.place_cameras(workspace.load_scene(root / "ws0"), truth, targets,
+                                                 status.truth_from_model, 1), rule="default")
+    workspace.prune(root / "ws0", edits, root / "ws1")
+    names = workspace.image_ids(root / "ws1")
+    moved = {c.image_id for c in edits.cameras}
+
+    def run(cold: bool) -> tuple[float, list, remap.MapReport]:
+        copy = root / "run"
+        shutil.rmtree(copy, ignore_errors=True)
+        shutil.copytree(root / "ws1", copy)
+        start = time.perf_counter()
+        report = workspace.map_again(copy, cold=cold)
+        took = time.perf_counter() - start
+        return took, workspace.load_models(copy), report
+
+    truth_poses = {n: (c.rotation, c.center) for n, c in truth.cameras.items()}
+    moved_names = [n for n, i in names.items() if i in moved]
+    return {"scene": f"{layout} sample", "images": len(names), "moved": len(moved),
+            **interleaved(runs, run, truth_poses, moved_names)}
+
+
+def synthetic_scene(size: int, runs: int, root: Path) -> dict:
+    """A synthesized walk of `size` images: its cold map is the base, then 3 cameras are edited."""
+    pycolmap.set_random_seed(0)
+    options = pycolmap.SyntheticDatasetOptions(num_rigs=1, num_cameras_per_rig=1,
+                                               num_frames_per_rig=size, num_points3D=50 * size)
+    database = root / "database.db"
+    db = pycolmap.Database.open(str(database))
+    truth_model = pycolmap.synthesize_dataset(options, db)
+    db.close()
+    (root / "images").mkdir()  # no pixels: mapping reads keypoints and matches only
+    base = sfm.map_database(database, root / "images", root / "base")
+    ids = sorted(base[0].reg_image_ids())
+    moved = {ids[len(ids) // 4], ids[len(ids) // 2], ids[3 * len(ids) // 4]}
+
+    def run(cold: bool) -> tuple[float, list, remap.MapReport]:
+        shutil.rmtree(root / "run", ignore_errors=True)
+        start = time.perf_counter()
+        models, report = remap.map_warm_or_cold(database, root / "images", root / "run", base, moved,
+                                                cold=cold)
+        return time.perf_counter() - start, models, report
+
+    moved_names = [base[0].image(i).name for i in moved]
+    return {"scene": f"synthetic {size}", "images": size, "moved": len(moved),
+            **interleaved(runs, run, colmap_model.camera_poses(truth_model), moved_names)}
+
+
+def print_rows(rows: list[dict], runs: int) -> None:
+    print(f"warm against cold re-mapping, median of {runs} runs each, interleaved")
+    print(f"{'scene':<18} {'images':>6} {'moved':>5} {'cold s':>7} {'warm s':>7} {'ratio':>6} "
+          f"{'reg c/w':>8} {'models c/w':>10} {'MAE c/w deg':>13}  warm fell back")
+    for r in rows:
+        cold, warm = r["cold"], r["warm"]
+        print(f"{r['scene']:<18} {r['images']:>6} {r['moved']:>5} {cold['median']:7.1f} "
+              f"{warm['median']:7.1f} "
+              f"{cold['median'] / warm['median']:5.1f}x {cold['registered']:>3}/{warm['registered']:<4} "
+              f"{cold['models']:>5}/{warm['models']:<4} {cold['mae']:6.2f}/{warm['mae']:<6.2f}  "
+              f"{warm['fallback'] or 'no'}")
+    for r in rows:
+        cold, warm = r["cold"], r["warm"]
+        target = TARGETS["synthetic" if r["scene"].startswith("synthetic") else "layout"]
+        checks = {f"warm >= {target}x": cold["median"] / warm["median"] >= target,
+                  "same registered": warm["registered"] >= cold["registered"],
+                  "no split": warm["models"] <= cold["models"],
+                  f"MAE within {MAX_MAE_GAP_DEG} deg": abs(warm["mae"] - cold["mae"]) <= MAX_MAE_GAP_DEG}
+        print(f"  {r['scene']:<18} " + ", ".join(f"{'PASS' if ok else 'FAIL'} {name}"
+                                                  for name, ok in checks.items()))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    parser.add_argument("--layouts", default="murals,office,twins,orbit")
+    parser.add_argument("--sizes", default="150,300")
+    parser.add_argument("--runs", type=int, default=3)
+    args = parser.parse_args()
+    set_colmap_verbosity(False)
+    rows = []
+    for layout in filter(None, args.layouts.split(",")):
+        with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
+            rows.append(layout_scene(layout, args.runs, Path(tmp)))
+        print(f"{layout} done", file=sys.stderr, flush=True)
+    for size in (int(s) for s in filter(None, args.sizes.split(","))):
+        with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
+            rows.append(synthetic_scene(size, args.runs, Path(tmp)))
+        print(f"synthetic {size} done", file=sys.stderr, flush=True)
+    print_rows(rows, args.runs)
+
+
+if __name__ == "__main__":
+    main()
