@@ -189,8 +189,8 @@ def build_parser() -> argparse.ArgumentParser:
                 ("--mapper", {"choices": ["incremental", "global"], "default": "incremental"}),
                 ("--threads", {"type": int, "default": None}),
                 ("--features", {"choices": ["standard", "fast"], "default": "standard",
-                                "help": "fast: fewer SIFT features, 4-5x faster on small renders "
-                                        "(weaker on real photos)"})]
+                                "help": "fast: fewer SIFT features, several times faster but "
+                                        "weaker (see docs/engine.md)"})]
     _add(sub, "reconstruct", cmd_reconstruct, "images -> COLMAP workspace",
          [("images_dir",), ("workspace",), *sfm_args])
     _add(sub, "scene", cmd_scene, "the top-down scene of a workspace",

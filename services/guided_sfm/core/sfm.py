@@ -23,8 +23,8 @@ log = logging.getLogger(__name__)
 MATCHERS = ("exhaustive", "sequential")
 # SIFT (first octave, contrast threshold). "fast" starts at the image's own resolution instead of
 # twice it and lowers the threshold: ~900 instead of ~2,300 features on the 640x480 samples and a
-# 4-5x faster first reconstruction, but the real Lund street walk then registers 4 of 29 images
-# (docs/engine.md), so it is opt-in.
+# first reconstruction ~8x faster than the default path, but weaker: the real Lund street walk
+# registers 4 of 29 images and murals' correction may not finish (docs/engine.md). Opt-in.
 FEATURES = {"standard": (-1, 0.02 / 3), "fast": (0, 0.003)}
 MAPPERS = ("incremental", "global")
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
