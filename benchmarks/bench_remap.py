@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import shutil
 import statistics
-import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -123,17 +122,23 @@ def synthetic_scene(size: int, runs: int, root: Path) -> dict:
             **interleaved(runs, run, colmap_model.camera_poses(truth_model), moved_names)}
 
 
-def print_rows(rows: list[dict], runs: int) -> None:
+def print_header(runs: int) -> None:
     print(f"warm against cold re-mapping, median of {runs} runs each, interleaved")
     print(f"{'scene':<18} {'images':>6} {'moved':>5} {'cold s':>7} {'warm s':>7} {'ratio':>6} "
-          f"{'reg c/w':>8} {'models c/w':>10} {'MAE c/w deg':>13}  warm fell back")
-    for r in rows:
-        cold, warm = r["cold"], r["warm"]
-        print(f"{r['scene']:<18} {r['images']:>6} {r['moved']:>5} {cold['median']:7.1f} "
-              f"{warm['median']:7.1f} "
-              f"{cold['median'] / warm['median']:5.1f}x {cold['registered']:>3}/{warm['registered']:<4} "
-              f"{cold['models']:>5}/{warm['models']:<4} {cold['mae']:6.2f}/{warm['mae']:<6.2f}  "
-              f"{warm['fallback'] or 'no'}")
+          f"{'reg c/w':>8} {'models c/w':>10} {'MAE c/w deg':>13}  warm fell back", flush=True)
+
+
+def print_row(r: dict) -> None:
+    """One scene's figures, printed as soon as it is measured (the whole run takes long)."""
+    cold, warm = r["cold"], r["warm"]
+    print(f"{r['scene']:<18} {r['images']:>6} {r['moved']:>5} {cold['median']:7.1f} "
+          f"{warm['median']:7.1f} "
+          f"{cold['median'] / warm['median']:5.1f}x {cold['registered']:>3}/{warm['registered']:<4} "
+          f"{cold['models']:>5}/{warm['models']:<4} {cold['mae']:6.2f}/{warm['mae']:<6.2f}  "
+          f"{warm['fallback'] or 'no'}", flush=True)
+
+
+def print_checks(rows: list[dict]) -> None:
     for r in rows:
         cold, warm = r["cold"], r["warm"]
         target = TARGETS["synthetic" if r["scene"].startswith("synthetic") else "layout"]
@@ -153,15 +158,16 @@ def main() -> None:
     args = parser.parse_args()
     set_colmap_verbosity(False)
     rows = []
+    print_header(args.runs)
     for layout in filter(None, args.layouts.split(",")):
         with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
             rows.append(layout_scene(layout, args.runs, Path(tmp)))
-        print(f"{layout} done", file=sys.stderr, flush=True)
+        print_row(rows[-1])
     for size in (int(s) for s in filter(None, args.sizes.split(","))):
         with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
             rows.append(synthetic_scene(size, args.runs, Path(tmp)))
-        print(f"synthetic {size} done", file=sys.stderr, flush=True)
-    print_rows(rows, args.runs)
+        print_row(rows[-1])
+    print_checks(rows)
 
 
 if __name__ == "__main__":

@@ -74,5 +74,5 @@ def test_map_reports_each_stage_with_its_time_and_peak_memory(tiny_workspace, tm
     times = {" ".join(line.split()[:2]): line.split()[2:] for line in lines if line.startswith("time ")}
     assert {"time map", "time total"} <= set(times)
     seconds, _, _, peak, unit = times["time total"]
-    assert float(seconds) > 0 and unit == "MiB"
+    assert float(seconds) >= 0 and unit == "MiB"  # a warm map with nothing moved can take < 0.05 s
     assert int(peak) > 50  # pycolmap and numpy alone hold more than 50 MiB
