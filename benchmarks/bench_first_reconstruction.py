@@ -6,7 +6,7 @@ Strategies, timed in the same run and interleaved (run 1 of each, then run 2 of 
 - "pycolmap defaults": extract_features, match_exhaustive, incremental_mapping, every option
   left at pycolmap's default (8192 SIFT features, all cores);
 - "default path": guided_sfm's reconstruct with SfmOptions() (exhaustive matching, incremental);
-- the opt-in strategies: sequential matching, global mapping, fast features.
+- the opt-in strategies: sequential matching, global mapping, COLMAP's own SIFT octaves.
 Per strategy: median seconds per stage and in all, the speed-up over pycolmap defaults, registered
 images and models, and the demo's outcome (`demo --rounds 2` with the default rule, started from
 that strategy's first reconstruction): wrong cameras, how many were fixed, final models.
@@ -73,7 +73,7 @@ STRATEGIES: dict[str, Build] = {
     "default path": guided(SfmOptions()),
     "sequential (opt-in)": guided(SfmOptions(matcher="sequential")),
     "global (opt-in)": guided(SfmOptions(mapper="global")),
-    "fast features (opt-in)": guided(SfmOptions(features="fast")),
+    "colmap SIFT (opt-in)": guided(SfmOptions(features="colmap")),
 }
 
 

@@ -188,9 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
     sfm_args = [("--matcher", {"choices": ["exhaustive", "sequential"], "default": "exhaustive"}),
                 ("--mapper", {"choices": ["incremental", "global"], "default": "incremental"}),
                 ("--threads", {"type": int, "default": None}),
-                ("--features", {"choices": ["standard", "fast"], "default": "standard",
-                                "help": "fast: fewer SIFT features, several times faster but "
-                                        "weaker (see docs/engine.md)"})]
+                ("--features", {"choices": ["standard", "colmap"], "default": "standard",
+                                "help": "colmap: COLMAP's own SIFT octaves and threshold, about "
+                                        "3x slower (see docs/engine.md)"})]
     _add(sub, "reconstruct", cmd_reconstruct, "images -> COLMAP workspace",
          [("images_dir",), ("workspace",), *sfm_args])
     _add(sub, "scene", cmd_scene, "the top-down scene of a workspace",

@@ -1,8 +1,17 @@
 """The paper's loop end to end on the tiny rendered scene, with real pycolmap."""
 
+from statistics import fmean
+
+from guided_sfm.core import evaluation
+from guided_sfm.core.truth import load_truth
 from guided_sfm.demo import run_demo
 
 from .conftest import TINY_OPTIONS
+
+# tiny walks a straight line: aligning on camera centres leaves the roll about that line free,
+# so even cameras that were never wrong carry a few degrees (the design's definition, kept).
+# The fixed cameras must be as well oriented as those, give or take this much.
+MAX_ROTATION_ABOVE_FLOOR_DEG = 1.0
 
 
 def test_one_round_fixes_the_folded_cameras(tmp_path):
@@ -10,7 +19,13 @@ def test_one_round_fixes_the_folded_cameras(tmp_path):
     first, last = result["rounds"][0], result["rounds"][-1]
     assert first["num_wrong"] >= 3, "plain COLMAP must fold the tiny scene's far end"
     assert result["summary"]["fixed"] >= 0.9 * first["num_wrong"]
-    assert last["num_models"] == 1 and last["rotation_mae_deg"] <= 3.0
+    assert last["num_models"] == 1
+    truth = load_truth(tmp_path / "sample" / "truth.json")
+    right_before = evaluation.camera_status(tmp_path / "round0", truth).right
+    final = evaluation.camera_status(tmp_path / f"round{last['round']}", truth, reference=right_before)
+    floor = fmean(final.errors[n].rotation_deg for n in right_before)
+    fixed = fmean(final.errors[n].rotation_deg for n in first["wrong"])
+    assert fixed <= floor + MAX_ROTATION_ABOVE_FLOOR_DEG, (fixed, floor)
     round1 = result["rounds"][1]
     assert round1["pruning"]["precision"] >= 0.8 and round1["pruning"]["recall"] >= 0.8
     assert (tmp_path / "round1" / "edits.json").is_file()

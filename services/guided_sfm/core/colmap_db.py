@@ -148,3 +148,40 @@ def finalize(path: Path) -> None:
     """Fold COLMAP's write-ahead log into the file, so the database is one self-contained file."""
     with closing(sqlite3.connect(path)) as conn:
         conn.execute("PRAGMA journal_mode=DELETE")
+
+
+def share_cameras(path: Path) -> int:
+    """Join cameras of identical model, size and starting parameters into one; returns how many went.
+
+    Extraction gives every image its own camera so that verification uses COLMAP's uncalibrated
+    solvers (far cheaper than the 5-point one a shared camera without a focal prior gets); the
+    mapper then refines one camera per kind of image, as the capture really had. Rigs and frames
+    (COLMAP >= 3.12) follow the camera they name.
+    """
+    with closing(sqlite3.connect(path)) as conn:
+        kinds: dict[tuple, int] = {}
+        joined: dict[int, int] = {}
+        rows = conn.execute("SELECT camera_id, model, width, height, params, prior_focal_length "
+                            "FROM cameras ORDER BY camera_id").fetchall()
+        in_rigs = {sensor for (sensor,) in conn.execute(
+            "SELECT sensor_id FROM rig_sensors WHERE sensor_type = ?", (int(pycolmap.SensorType.CAMERA),))}
+        for camera_id, *kind in rows:
+            if camera_id in in_rigs:  # one of several sensors of a real rig: left alone
+                continue
+            keep = kinds.setdefault(tuple(kind), camera_id)
+            if keep != camera_id:
+                joined[camera_id] = keep
+        if not joined:
+            return 0
+        rig_of = dict(conn.execute("SELECT ref_sensor_id, rig_id FROM rigs WHERE ref_sensor_type = ?",
+                                   (int(pycolmap.SensorType.CAMERA),)))
+        for gone, keep in joined.items():
+            conn.execute("UPDATE images SET camera_id = ? WHERE camera_id = ?", (keep, gone))
+            conn.execute("UPDATE frame_data SET sensor_id = ? WHERE sensor_id = ? AND sensor_type = ?",
+                         (keep, gone, int(pycolmap.SensorType.CAMERA)))
+            if gone in rig_of and keep in rig_of:
+                conn.execute("UPDATE frames SET rig_id = ? WHERE rig_id = ?", (rig_of[keep], rig_of[gone]))
+                conn.execute("DELETE FROM rigs WHERE rig_id = ?", (rig_of[gone],))
+            conn.execute("DELETE FROM cameras WHERE camera_id = ?", (gone,))
+        conn.commit()
+    return len(joined)

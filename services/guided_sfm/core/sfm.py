@@ -21,19 +21,31 @@ from guided_sfm.core.types import Progress, no_progress
 log = logging.getLogger(__name__)
 
 MATCHERS = ("exhaustive", "sequential")
-# SIFT (first octave, contrast threshold). "fast" starts at the image's own resolution instead of
-# twice it and lowers the threshold: ~900 instead of ~2,300 features on the 640x480 samples and a
-# first reconstruction ~8x faster than the default path, but weaker: the real Lund street walk
-# registers 4 of 29 images and murals' correction may not finish (docs/engine.md). Opt-in.
-FEATURES = {"standard": (-1, 0.02 / 3), "fast": (0, 0.003)}
+# SIFT (first octave, contrast threshold). "standard" starts at the image's own resolution, not
+# twice it, and lowers the threshold to keep the count: COLMAP drops the finest scales first when
+# it caps, so the doubled octave was mostly computed and thrown away (extraction 3x faster on
+# murals, same registration on murals and Lund, docs/engine.md). "colmap" is COLMAP's own.
+FEATURES = {"standard": (0, 0.003), "colmap": (-1, 0.02 / 3)}
 MAPPERS = ("incremental", "global")
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
-EXTRACT_CHUNK = 8  # images per extraction call: one progress report each
-MATCH_CHUNKS = 20  # progress reports during matching
+# About this many extraction and matching calls, one progress report each. Every call sets up
+# COLMAP's extractor or matcher cache again, so fewer calls are faster (measured on murals).
+EXTRACT_CHUNKS, MIN_EXTRACT_CHUNK = 10, 8
+MATCH_CHUNKS = 10
 # A cold incremental map now and then settles on a dead-end initial pair (Lund, a forward walk:
 # 2 of 29 images in 2 of about 10 runs on 2 threads); it starts again, with another seed,
 # while its largest model holds less than this share of the images.
 COLD_START_ATTEMPTS, COLD_START_SHARE = 3, 0.5
+# SIFT features kept per image, by area. Exhaustive matching grows with the square of the
+# count; a density (not COLMAP's flat 8,192) keeps small images cheap and large ones matched:
+# 1,024 for the 640x480 samples, 2,621 for the 1024x768 Lund photographs (docs/engine.md).
+FEATURES_PER_MEGAPIXEL, FEATURE_BOUNDS = 3333, (1024, 8192)
+
+
+def features_for_size(width: int, height: int) -> int:
+    """The default SIFT feature budget of a width x height image."""
+    budget = round(FEATURES_PER_MEGAPIXEL * width * height / 1e6)
+    return int(min(max(budget, FEATURE_BOUNDS[0]), FEATURE_BOUNDS[1]))
 
 
 @dataclass(frozen=True)
@@ -43,9 +55,8 @@ class SfmOptions:
     camera_model: str = "SIMPLE_RADIAL"
     matcher: str = "exhaustive"
     mapper: str = "incremental"
-    # 4096 features keep exhaustive matching of ~50 indoor images near a minute on 2 cores
-    # while leaving hundreds of verified inliers per neighbouring pair.
-    max_num_features: int = 4096
+    # None: a budget that follows the image's area (features_for_size); a number overrides it.
+    max_num_features: int | None = None
     features: str = "standard"  # a key of FEATURES
     sequential_overlap: int = 10
     # COLMAP's default of 30 also rejects initial pairs that triangulate fewer points; forward
@@ -65,7 +76,8 @@ class SfmOptions:
             raise InvalidInput(
                 f"unknown camera model {self.camera_model!r}; choose one of {CAMERA_MODELS}"
             )
-        if self.num_threads < 1 or self.max_num_features < 64:
+        if self.num_threads < 1 or (self.max_num_features is not None
+                                    and self.max_num_features < 64):
             raise InvalidInput("num_threads must be >= 1 and max_num_features >= 64")
 
     def to_dict(self) -> dict[str, object]:
@@ -117,13 +129,13 @@ def list_images(image_dir: Path) -> list[str]:
     return names
 
 
-def _groups_by_size(image_dir: Path, names: Sequence[str]) -> list[list[str]]:
-    """Names grouped by image size: one camera per size (portrait and landscape differ)."""
+def _groups_by_size(image_dir: Path, names: Sequence[str]) -> dict[tuple[int, int], list[str]]:
+    """Names grouped by image size (each size gets its own feature budget and camera)."""
     groups: dict[tuple[int, int], list[str]] = {}
     for name in names:
         with Image.open(image_dir / name) as img:
             groups.setdefault(img.size, []).append(name)
-    return list(groups.values())
+    return groups
 
 
 def extract_features(
@@ -134,39 +146,35 @@ def extract_features(
     cancel: CancelToken | None = None,
     image_names: Sequence[str] | None = None,
 ) -> None:
-    """SIFT features of every image into the database (images already there are skipped)."""
+    """SIFT features of every image into the database (images already there are skipped).
+
+    Every image gets its own camera here; match_features joins them per kind of image once the
+    pairs are verified (colmap_db.share_cameras says why).
+    """
     names = list(image_names) if image_names is not None else list_images(image_dir)
     extraction = pycolmap.FeatureExtractionOptions()
     extraction.num_threads = options.num_threads
     extraction.use_gpu = False
-    extraction.sift.max_num_features = options.max_num_features
     extraction.sift.first_octave, extraction.sift.peak_threshold = FEATURES[options.features]
+    reader = pycolmap.ImageReaderOptions()
+    reader.camera_model = options.camera_model
     done = 0
-    for group in _groups_by_size(image_dir, names):
-        camera_id = -1
-        for start in range(0, len(group), EXTRACT_CHUNK):
+    for size, group in _groups_by_size(image_dir, names).items():
+        extraction.sift.max_num_features = options.max_num_features or features_for_size(*size)
+        step = max(MIN_EXTRACT_CHUNK, -(-len(names) // EXTRACT_CHUNKS))
+        for start in range(0, len(group), step):
             _check(cancel)
-            chunk = group[start : start + EXTRACT_CHUNK]
-            reader = pycolmap.ImageReaderOptions()
-            reader.camera_model = options.camera_model
-            reader.existing_camera_id = camera_id
+            chunk = group[start : start + step]
             with _cancellable():
                 pycolmap.extract_features(
                     database, image_dir, image_names=chunk,
-                    camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
+                    camera_mode=pycolmap.CameraMode.PER_IMAGE, reader_options=reader,
                     extraction_options=extraction, device=pycolmap.Device.cpu,
                     cancellation_token=_token(cancel),
                 )
-            if camera_id == -1:
-                camera_id = _camera_of(database, chunk[0])
             done += len(chunk)
             progress("extract", done / len(names))
     _check(cancel)
-
-
-def _camera_of(database: Path, name: str) -> int:
-    with colmap_db.read_only(database) as conn:
-        return conn.execute("SELECT camera_id FROM images WHERE name = ?", (name,)).fetchone()[0]
 
 
 def _image_ids_in_order(database: Path) -> list[int]:
@@ -190,7 +198,8 @@ def match_features(
     progress: Progress = no_progress,
     cancel: CancelToken | None = None,
 ) -> None:
-    """Match and geometrically verify the candidate pairs, in chunks so progress is real."""
+    """Match and geometrically verify the candidate pairs, with progress; then join the
+    per-image cameras so the mapper refines one camera per kind of image."""
     db_names = colmap_db.image_names(database)
     pairs = candidate_pairs(_image_ids_in_order(database), options.matcher,
                             options.sequential_overlap)
@@ -199,12 +208,11 @@ def match_features(
     matching.use_gpu = False
     verification = pycolmap.TwoViewGeometryOptions()
     verification.ransac.random_seed = options.seed
-    chunk = max(1, -(-len(pairs) // MATCH_CHUNKS))
     with tempfile.TemporaryDirectory() as tmp:
         pair_file = Path(tmp) / "pairs.txt"
-        for start in range(0, len(pairs), chunk):
+        done = 0
+        for block in _blocks_of_images(pairs):
             _check(cancel)
-            block = pairs[start : start + chunk]
             pair_file.write_text("".join(f"{db_names[a]} {db_names[b]}\n" for a, b in block))
             pairing = pycolmap.ImportedPairingOptions()
             pairing.match_list_path = pair_file
@@ -214,8 +222,27 @@ def match_features(
                     verification_options=verification, device=pycolmap.Device.cpu,
                     cancellation_token=_token(cancel),
                 )
-            progress("match", min(1.0, (start + len(block)) / len(pairs)))
+            done += len(block)
+            progress("match", done / len(pairs))
     _check(cancel)
+    colmap_db.share_cameras(database)
+
+
+def _blocks_of_images(pairs: Sequence[tuple[int, int]]) -> list[list[tuple[int, int]]]:
+    """The pairs in about MATCH_CHUNKS calls, each between two small blocks of images.
+
+    Every call rebuilds COLMAP's per-image matcher cache, so a call should touch few images:
+    20 slices of the pair list cost murals 45% more than one call, since each touched nearly
+    every image; blocks of images keep that overhead small and progress still real.
+    """
+    images = sorted({i for pair in pairs for i in pair})
+    per_side = max(1, round((2 * MATCH_CHUNKS) ** 0.5))  # k blocks give ~k^2/2 block pairs
+    size = max(1, -(-len(images) // per_side))
+    block_of = {image: index // size for index, image in enumerate(images)}
+    groups: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    for a, b in pairs:
+        groups.setdefault(tuple(sorted((block_of[a], block_of[b]))), []).append((a, b))
+    return [groups[key] for key in sorted(groups)]
 
 
 def _incremental_options(options: SfmOptions, image_dir: Path) -> pycolmap.IncrementalPipelineOptions:

@@ -1,0 +1,89 @@
+"""Extraction and matching choices of the engine: feature budgets, call blocks, shared cameras."""
+
+import shutil
+import sqlite3
+from contextlib import closing
+
+import pycolmap
+import pytest
+from PIL import Image
+
+from guided_sfm.core import colmap_db, sfm, workspace
+from guided_sfm.core.errors import InvalidInput
+from guided_sfm.core.sfm import SfmOptions
+
+from .conftest import TINY_OPTIONS
+
+
+@pytest.mark.parametrize(("size", "budget"), [
+    ((640, 480), 1024),     # the rendered samples
+    ((1024, 768), 2621),    # the real Lund photographs
+    ((4032, 3024), 8192),   # a phone photo: COLMAP's own default is the ceiling
+    ((64, 64), 1024),       # never fewer than the floor
+])
+def test_feature_budget_follows_the_image_area(size, budget):
+    assert sfm.features_for_size(*size) == budget
+
+
+def test_an_explicit_feature_count_is_checked():
+    with pytest.raises(InvalidInput, match="max_num_features"):
+        SfmOptions(max_num_features=10)
+
+
+@pytest.mark.parametrize(("images", "matcher"), [(57, "exhaustive"), (300, "exhaustive"),
+                                                 (5, "exhaustive"), (300, "sequential")])
+def test_matching_blocks_cover_every_pair_once_and_touch_few_images(images, matcher):
+    pairs = sfm.candidate_pairs(list(range(1, images + 1)), matcher)
+    blocks = sfm._blocks_of_images(pairs)
+    assert sorted(p for block in blocks for p in block) == sorted(pairs)
+    assert len(blocks) <= 2 * sfm.MATCH_CHUNKS
+    if matcher == "exhaustive" and images > 20:
+        # each call sees at most two blocks of images, not the whole set
+        assert max(len({i for p in block for i in p}) for block in blocks) < 0.6 * images
+
+
+def _cameras(database):
+    # closed at once: a Python connection left open while COLMAP's own SQLite writes the same
+    # file corrupts it (two SQLite libraries in one process do not see each other's locks)
+    with closing(sqlite3.connect(database)) as conn:
+        cameras = conn.execute("SELECT camera_id, width, height FROM cameras").fetchall()
+        images = dict(conn.execute("SELECT name, camera_id FROM images"))
+        frames = conn.execute("SELECT f.frame_id, r.ref_sensor_id, d.sensor_id FROM frames f "
+                              "JOIN rigs r USING (rig_id) JOIN frame_data d USING (frame_id)").fetchall()
+    return cameras, images, frames
+
+
+def test_images_verify_with_a_camera_each_and_map_with_one_per_size(tiny_sample, tmp_path):
+    """Landscape and portrait images end with one camera per size, rigs and frames following."""
+    images = tmp_path / "images"
+    images.mkdir()
+    names = sorted(p.name for p in (tiny_sample / "images").iterdir())[:6]
+    for name in names[:4]:
+        shutil.copy(tiny_sample / "images" / name, images / name)
+    for name in names[4:]:  # two portrait images: a different kind of image
+        Image.open(tiny_sample / "images" / name).transpose(Image.Transpose.ROTATE_90).save(images / name)
+    database = tmp_path / "database.db"
+    sfm.extract_features(images, database, TINY_OPTIONS)
+    cameras, _, _ = _cameras(database)
+    assert len(cameras) == 6  # one per image while verifying
+
+    sfm.match_features(database, TINY_OPTIONS)
+    cameras, by_image, frames = _cameras(database)
+    with Image.open(images / names[0]) as img:
+        landscape = img.size
+    assert sorted((w, h) for _, w, h in cameras) == sorted([landscape, landscape[::-1]])
+    sizes = {cid: (w, h) for cid, w, h in cameras}
+    for name, camera_id in by_image.items():
+        with Image.open(images / name) as img:
+            assert sizes[camera_id] == img.size
+    assert len(frames) == 6 and all(ref == sensor for _, ref, sensor in frames)
+    assert colmap_db.share_cameras(database) == 0  # joining twice changes nothing
+    # COLMAP reads the joined database as it wrote it
+    loaded = pycolmap.Database.open(database)
+    assert (loaded.num_cameras(), loaded.num_rigs(), loaded.num_images()) == (2, 2, 6)
+    loaded.close()
+
+
+def test_the_reconstructed_sample_has_one_camera(tiny_workspace_ro):
+    model = workspace.load_models(tiny_workspace_ro)[0]
+    assert len(model.cameras) == 1
