@@ -10,7 +10,7 @@ Run: .venv/bin/python benchmarks/bench_remap.py [--layouts murals,office,twins,o
   cold map is the base version; the edit moves 3 cameras (their pairs are kept: nothing to
   prune), then the database is mapped cold and warm (from the base without those 3), interleaved.
 Per scene: median seconds of each, the ratio, the registered count and models of both, and the
-rotation MAE (deg) of the moved cameras against the truth for both. The figures depend on the
+median rotation MAE (deg) of the moved cameras against the truth for both. The figures depend on the
 machine's load; the ratios compare runs made side by side.
 """
 
@@ -55,17 +55,22 @@ Run = Callable[[bool], tuple[float, list, remap.MapReport]]
 
 
 def interleaved(runs: int, run: Run, truth: dict, moved_names: list[str]) -> dict:
-    """Per mode: median seconds and the last run's registration, models and MAE (cold, warm, ...)."""
+    """Per mode: median seconds and MAE, the last run's registration and models (cold, warm, ...).
+
+    Cold maps are not deterministic on 2 threads (their MAE varies between runs), hence medians.
+    """
     seconds: dict[str, list[float]] = {"cold": [], "warm": []}
+    maes: dict[str, list[float]] = {"cold": [], "warm": []}
     out = {}
     for _ in range(runs):
         for mode in seconds:
             took, models, report = run(mode == "cold")
             seconds[mode].append(took)
+            maes[mode].append(rotation_mae(models, truth, moved_names))
             out[mode] = {"registered": models[0].num_reg_images(), "models": len(models),
-                         "mae": rotation_mae(models, truth, moved_names), "fallback": report.fallback}
+                         "fallback": report.fallback}
     for mode in seconds:
-        out[mode]["median"] = statistics.median(seconds[mode])
+        out[mode].update(median=statistics.median(seconds[mode]), mae=statistics.median(maes[mode]))
     return out
 
 
@@ -150,7 +155,7 @@ def print_checks(rows: list[dict]) -> None:
         checks = {f"warm >= {target}x": cold["median"] / warm["median"] >= target,
                   "same registered": warm["registered"] >= cold["registered"],
                   "no split": warm["models"] <= cold["models"],
-                  f"MAE within {MAX_MAE_GAP_DEG} deg": abs(warm["mae"] - cold["mae"]) <= MAX_MAE_GAP_DEG}
+                  f"MAE <= cold + {MAX_MAE_GAP_DEG} deg": warm["mae"] - cold["mae"] <= MAX_MAE_GAP_DEG}
         print(f"  {r['scene']:<18} " + ", ".join(f"{'PASS' if ok else 'FAIL'} {name}"
                                                   for name, ok in checks.items()))
 

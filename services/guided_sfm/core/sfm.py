@@ -36,6 +36,7 @@ MATCH_CHUNKS = 10
 # 2 of 29 images in 2 of about 10 runs on 2 threads); it starts again, with another seed,
 # while its largest model holds less than this share of the images.
 COLD_START_ATTEMPTS, COLD_START_SHARE = 3, 0.5
+WARM_GLOBAL_BA_RATIO = 2.0  # growth between global BAs when mapping from a previous model
 # SIFT features kept per image, by area. Exhaustive matching grows with the square of the
 # count; a density (not COLMAP's flat 8,192) keeps small images cheap and large ones matched:
 # 1,024 for the 640x480 samples, 2,621 for the 1024x768 Lund photographs (docs/engine.md).
@@ -290,6 +291,12 @@ def map_database(
                 mapping = _incremental_options(options, image_dir)
                 mapping.random_seed = options.seed + attempt
                 mapping.fix_existing_frames = fix_existing
+                if input_model:
+                    # The start is already a large model: a global BA each time it grows by
+                    # 10% (COLMAP's default) refines it again and again; the final global BA
+                    # still runs. 2x re-mapped murals 2.2x faster than cold (1.7x at 10%).
+                    mapping.ba_global_frames_ratio = WARM_GLOBAL_BA_RATIO
+                    mapping.ba_global_points_ratio = WARM_GLOBAL_BA_RATIO
                 with _cancellable():
                     found = pycolmap.incremental_mapping(
                         database, image_dir, tmp, mapping,
