@@ -70,7 +70,9 @@ def interleaved(runs: int, run: Run, truth: dict, moved_names: list[str]) -> dic
             out[mode] = {"registered": models[0].num_reg_images(), "models": len(models),
                          "fallback": report.fallback}
     for mode in seconds:
-        out[mode].update(median=statistics.median(seconds[mode]), mae=statistics.median(maes[mode]))
+        measured = [mae for mae in maes[mode] if not np.isnan(mae)]  # NaN: moved ones unregistered
+        out[mode].update(median=statistics.median(seconds[mode]),
+                         mae=statistics.median(measured) if measured else float("nan"))
     return out
 
 

@@ -190,7 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
                 ("--threads", {"type": int, "default": None}),
                 ("--features", {"choices": ["standard", "colmap"], "default": "standard",
                                 "help": "colmap: COLMAP's own SIFT octaves and threshold, about "
-                                        "3x slower (see docs/engine.md)"})]
+                                        "2x slower (see docs/engine.md)"})]
     _add(sub, "reconstruct", cmd_reconstruct, "images -> COLMAP workspace",
          [("images_dir",), ("workspace",), *sfm_args])
     _add(sub, "scene", cmd_scene, "the top-down scene of a workspace",

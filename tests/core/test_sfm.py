@@ -64,8 +64,12 @@ def test_images_verify_with_a_camera_each_and_map_with_one_per_size(tiny_sample,
         Image.open(tiny_sample / "images" / name).transpose(Image.Transpose.ROTATE_90).save(images / name)
     database = tmp_path / "database.db"
     sfm.extract_features(images, database, TINY_OPTIONS)
-    cameras, _, _ = _cameras(database)
+    cameras, by_image, _ = _cameras(database)
     assert len(cameras) == 6  # one per image while verifying
+    with closing(sqlite3.connect(database)) as conn:  # a GPS prior, as a phone photo brings
+        conn.execute("INSERT INTO pose_priors VALUES (1, ?, ?, 0, NULL, NULL, NULL, 0)",
+                     (2, by_image[names[1]]))
+        conn.commit()
 
     sfm.match_features(database, TINY_OPTIONS)
     cameras, by_image, frames = _cameras(database)
@@ -77,6 +81,9 @@ def test_images_verify_with_a_camera_each_and_map_with_one_per_size(tiny_sample,
         with Image.open(images / name) as img:
             assert sizes[camera_id] == img.size
     assert len(frames) == 6 and all(ref == sensor for _, ref, sensor in frames)
+    with closing(sqlite3.connect(database)) as conn:
+        prior_camera = conn.execute("SELECT corr_sensor_id FROM pose_priors").fetchone()[0]
+    assert prior_camera == by_image[names[1]] in sizes  # it follows its image's joined camera
     assert colmap_db.share_cameras(database) == 0  # joining twice changes nothing
     # COLMAP reads the joined database as it wrote it
     loaded = pycolmap.Database.open(database)

@@ -150,38 +150,63 @@ def finalize(path: Path) -> None:
         conn.execute("PRAGMA journal_mode=DELETE")
 
 
+CAMERA = int(pycolmap.SensorType.CAMERA)
+
+
 def share_cameras(path: Path) -> int:
     """Join cameras of identical model, size and starting parameters into one; returns how many went.
 
     Extraction gives every image its own camera so that verification uses COLMAP's uncalibrated
-    solvers (far cheaper than the 5-point one a shared camera without a focal prior gets); the
-    mapper then refines one camera per kind of image, as the capture really had. Rigs and frames
-    (COLMAP >= 3.12) follow the camera they name.
+    solvers (far cheaper than the shared-focal one a shared camera without a focal prior gets);
+    the mapper then refines one camera per kind of image, as the capture really had. Every row
+    naming a joined camera follows it (images, frames, rigs, pose priors); cameras of real
+    multi-sensor rigs are left alone.
     """
     with closing(sqlite3.connect(path)) as conn:
-        kinds: dict[tuple, int] = {}
-        joined: dict[int, int] = {}
         rows = conn.execute("SELECT camera_id, model, width, height, params, prior_focal_length "
                             "FROM cameras ORDER BY camera_id").fetchall()
         in_rigs = {sensor for (sensor,) in conn.execute(
-            "SELECT sensor_id FROM rig_sensors WHERE sensor_type = ?", (int(pycolmap.SensorType.CAMERA),))}
+            "SELECT sensor_id FROM rig_sensors WHERE sensor_type = ? UNION "
+            "SELECT ref_sensor_id FROM rigs r WHERE ref_sensor_type = ? AND EXISTS "
+            "(SELECT 1 FROM rig_sensors s WHERE s.rig_id = r.rig_id)", (CAMERA, CAMERA))}
+        kinds: dict[tuple, int] = {}
+        joined: dict[int, int] = {}
         for camera_id, *kind in rows:
-            if camera_id in in_rigs:  # one of several sensors of a real rig: left alone
-                continue
-            keep = kinds.setdefault(tuple(kind), camera_id)
-            if keep != camera_id:
-                joined[camera_id] = keep
+            if camera_id not in in_rigs:
+                keep = kinds.setdefault(tuple(kind), camera_id)
+                if keep != camera_id:
+                    joined[camera_id] = keep
         if not joined:
             return 0
         rig_of = dict(conn.execute("SELECT ref_sensor_id, rig_id FROM rigs WHERE ref_sensor_type = ?",
-                                   (int(pycolmap.SensorType.CAMERA),)))
+                                   (CAMERA,)))
         for gone, keep in joined.items():
             conn.execute("UPDATE images SET camera_id = ? WHERE camera_id = ?", (keep, gone))
             conn.execute("UPDATE frame_data SET sensor_id = ? WHERE sensor_id = ? AND sensor_type = ?",
-                         (keep, gone, int(pycolmap.SensorType.CAMERA)))
+                         (keep, gone, CAMERA))
+            conn.execute("UPDATE pose_priors SET corr_sensor_id = ? "
+                         "WHERE corr_sensor_id = ? AND corr_sensor_type = ?", (keep, gone, CAMERA))
             if gone in rig_of and keep in rig_of:
                 conn.execute("UPDATE frames SET rig_id = ? WHERE rig_id = ?", (rig_of[keep], rig_of[gone]))
                 conn.execute("DELETE FROM rigs WHERE rig_id = ?", (rig_of[gone],))
+            elif gone in rig_of:  # the kept camera had no rig yet: this one becomes its rig
+                conn.execute("UPDATE rigs SET ref_sensor_id = ? WHERE rig_id = ?", (keep, rig_of[gone]))
+                rig_of[keep] = rig_of.pop(gone)
             conn.execute("DELETE FROM cameras WHERE camera_id = ?", (gone,))
+        _forget_joined_cameras_of_pairs(conn, set(joined))
         conn.commit()
     return len(joined)
+
+
+def _forget_joined_cameras_of_pairs(conn: sqlite3.Connection, joined: set[int]) -> None:
+    """Drop the cameras a pair's geometry was estimated with when one of them was joined away.
+
+    COLMAP stores them (id first, 4 bytes little-endian) only for some pairs, e.g. one image
+    with a focal prior and one without; mapping re-estimates its first pair and never reads them.
+    """
+    for pair_id, *cameras in conn.execute(
+            "SELECT pair_id, camera1, camera2 FROM two_view_geometries "
+            "WHERE camera1 IS NOT NULL OR camera2 IS NOT NULL").fetchall():
+        if any(blob and int.from_bytes(blob[:4], "little") in joined for blob in cameras):
+            conn.execute("UPDATE two_view_geometries SET camera1 = NULL, camera2 = NULL "
+                         "WHERE pair_id = ?", (pair_id,))
