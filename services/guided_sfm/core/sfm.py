@@ -131,7 +131,7 @@ def list_images(image_dir: Path) -> list[str]:
 
 
 def _groups_by_size(image_dir: Path, names: Sequence[str]) -> dict[tuple[int, int], list[str]]:
-    """Names grouped by image size (each size gets its own feature budget and camera)."""
+    """Names grouped by image size: each size gets its own feature budget (and, once joined, camera)."""
     groups: dict[tuple[int, int], list[str]] = {}
     for name in names:
         with Image.open(image_dir / name) as img:
@@ -159,10 +159,10 @@ def extract_features(
     extraction.sift.first_octave, extraction.sift.peak_threshold = FEATURES[options.features]
     reader = pycolmap.ImageReaderOptions()
     reader.camera_model = options.camera_model
+    step = max(MIN_EXTRACT_CHUNK, -(-len(names) // EXTRACT_CHUNKS))
     done = 0
     for size, group in _groups_by_size(image_dir, names).items():
         extraction.sift.max_num_features = options.max_num_features or features_for_size(*size)
-        step = max(MIN_EXTRACT_CHUNK, -(-len(names) // EXTRACT_CHUNKS))
         for start in range(0, len(group), step):
             _check(cancel)
             chunk = group[start : start + step]
