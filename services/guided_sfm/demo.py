@@ -75,7 +75,23 @@ def _summary(reports: list[dict]) -> dict:
             "initially_unregistered": len(reports[0]["unregistered"]),
             "num_images": reports[0]["num_images"],
             "fixed": len(wrong0 - still), "remaining": len(still),
-            "final_wrong": last["num_wrong"], "final_models": last["num_models"]}
+            "final_wrong": last["num_wrong"], "final_models": last["num_models"],
+            "pruning_pooled": _pooled(reports)}
+
+
+def _pooled(reports: list[dict]) -> dict | None:
+    """Pruning over all rounds: precision of every deleted pair; recall against the false pairs
+    of the first reconstruction's database (each later round starts from what is left of them)."""
+    rounds = [r["pruning"] for r in reports[1:] if r.get("pruning")]
+    if not rounds:
+        return None
+    deleted = sum(r["deleted"] for r in rounds)
+    hits = sum(r["true_deleted"] for r in rounds)
+    precision = hits / deleted if deleted else 1.0
+    recall = hits / rounds[0]["false_pairs"] if rounds[0]["false_pairs"] else 1.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
+    return {"deleted": deleted, "true_deleted": hits, "false_pairs": rounds[0]["false_pairs"],
+            "precision": precision, "recall": recall, "f1": f1}
 
 
 ROUND_COLUMNS = [("round", "round"), ("registered", "num_registered"), ("wrong", "num_wrong"),
@@ -103,4 +119,10 @@ def print_report(result: dict) -> None:
                   if pruning else "-")
         times = " ".join(f"{k} {v}" for k, v in report["seconds"].items())
         print("  ".join(cells) + f"  {scores:>14}   {times}")
-    print("summary: " + ", ".join(f"{k} {v}" for k, v in result["summary"].items()))
+    summary = dict(result["summary"])
+    pooled = summary.pop("pruning_pooled")
+    print("summary: " + ", ".join(f"{k} {v}" for k, v in summary.items()))
+    if pooled:
+        print(f"pruning over all rounds: P {pooled['precision']:.2f}, R {pooled['recall']:.2f}, "
+              f"F1 {pooled['f1']:.2f} ({pooled['true_deleted']} of {pooled['deleted']} deleted "
+              f"pairs false; {pooled['false_pairs']} false pairs at the start)")

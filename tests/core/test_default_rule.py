@@ -176,6 +176,31 @@ def test_a_rotation_far_from_the_placement_is_cut():
     assert result.reasons == {(1, 2): ("rotation",)}
 
 
+def _with_strays(capture: Capture, rng, share: float, sigma_deg: float = 15.0) -> Capture:
+    """The pair's evidence with that share of camera 2's rays thrown ~sigma off (look-alikes)."""
+    evidence = capture.evidence()
+    rays = evidence.rays.copy()
+    half = len(rays) // 2  # camera 2's rays follow camera 1's (one pair)
+    stray = half + np.flatnonzero(rng.random(half) < share)
+    rays[stray] += rng.normal(0.0, np.radians(sigma_deg), (len(stray), 3))
+    object.__setattr__(evidence, "rays", rays / np.linalg.norm(rays, axis=1, keepdims=True))
+    capture.evidence = lambda: evidence
+    return capture
+
+
+@pytest.mark.parametrize("share,cut", [(0.0, False), (0.3, False), (0.45, False), (0.55, True),
+                                       (0.7, True)])
+def test_the_rotation_test_follows_the_majority_of_a_pairs_matches(share, cut):
+    # design.md calls a pair false when >= 50% of its matches are wrong; an RMS cut at 30%.
+    # epipolar_ratio 0.01 leaves the fixed epipolar_deg limit: strays also raise the best fit.
+    capture = _with_strays(_rotation_pair(np.random.default_rng(4), (0.6, 0.1), planar=False,
+                                          noise=1e-4), np.random.default_rng(7), share)
+    edits = capture.placement({2}, shift=0.2, turn_deg=9.0, placement_deg=179.0,
+                              epipolar_ratio=0.01)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    assert result.reasons == ({(1, 2): ("rotation",)} if cut else {})
+
+
 @pytest.mark.parametrize("name,value,message", [
     ("placement_deg", 0.0, "placement_deg must be a finite number > 0"),
     ("rotation_deg", -5.0, "rotation_deg must be a finite number > 0"),

@@ -27,8 +27,9 @@ class Tolerances:
     # ...and by this much more per further moved member (each placement brings its own yaw error;
     # the placement test's angle grows by the same).
     yaw_uncertainty_deg: float = 10.0
-    # RMS epipolar residual (deg) the best rotation in that range may leave before the pair is cut,
-    # and at least this multiple of the residual the pair's best unconstrained fit leaves.
+    # Epipolar residual (deg) the best pose in that range may leave before the pair is cut (the
+    # RMS, or where that is above it the median match's under a reweighted fit), and at least
+    # this multiple of the RMS the pair's best unconstrained fit leaves.
     epipolar_deg: float = 2.0
     epipolar_ratio: float = 5.0
     # How far a moved camera may sit from where the user put it, as a share of its range; it
@@ -37,8 +38,10 @@ class Tolerances:
     # Where the placement re-orients a pair (its relative rotation, yaw free as above, is no longer
     # the model's), the pair's own two-view rotation may differ from the nearest placed one this much.
     two_view_deg: float = 15.0
-    # Fewest inliers for a rotation verdict: weaker pairs give unreliable relative rotations.
-    rotation_min_inliers: float = 30.0
+    # Fewest inliers for a rotation verdict. COLMAP verifies a pair with 15; the epipolar stage's
+    # median residual keeps a weak true pair's few stray matches from cutting it, so every verified
+    # pair can be judged (30 left twins' weak look-alike pairs untested, a fold alive).
+    rotation_min_inliers: float = 15.0
     range_scale: float = 1.0
 
     def to_dict(self) -> dict[str, float]:
