@@ -7,7 +7,9 @@ Each layout is rendered and reconstructed once (kept in --work, so a second run 
 `demo --rounds N --reuse` runs with the defaults and with every tolerance of core/tolerances.py
 scaled by each factor, all from that same first reconstruction. Per run: the share of the
 initially wrong cameras fixed, the final number of models, and the pruning pooled over the rounds
-(precision, F1). The acceptance of issue 7 is ">= 95% fixed everywhere".
+(precision, F1). The check: >= 95% fixed in one model, every run. A --work folder is reused as it
+is: delete it after a sample layout changes. With rotation_min_inliers at 15 (COLMAP's own bound
+for a verified pair) its 0.7x setting changes nothing.
 """
 
 from __future__ import annotations
@@ -62,7 +64,7 @@ def main() -> None:
     settings = [("defaults", {})] + [(f"{name} x{factor:g}", {name: defaults[name] * factor})
                                      for name in NAMES for factor in factors]
     with tempfile.TemporaryDirectory(prefix="guided-sfm-sensitivity-") as tmp:
-        work = args.work or Path(tmp)
+        work = args.work or Path(tmp)  # (an empty temp dir is left unused with --work)
         rows, start = [], time.perf_counter()
         for label, overrides in settings:
             row = {"setting": label, "runs": {}}
@@ -79,8 +81,8 @@ def main() -> None:
     for row in rows:
         print(f"| {row['setting']} | " + " | ".join(cell(row["runs"][lay]) for lay in layouts) + " |")
     short = [(row["setting"], lay) for row in rows for lay in layouts
-             if row["runs"][lay]["share"] < TARGET_FIXED]
-    print(f"\n>= {TARGET_FIXED:.0%} fixed everywhere: "
+             if row["runs"][lay]["share"] < TARGET_FIXED or row["runs"][lay]["models"] != 1]
+    print(f"\n>= {TARGET_FIXED:.0%} fixed in one model everywhere: "
           + ("PASS" if not short else "FAIL: " + ", ".join(f"{s} on {lay}" for s, lay in short)))
 
 

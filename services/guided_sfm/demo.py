@@ -76,10 +76,10 @@ def _summary(reports: list[dict]) -> dict:
             "num_images": reports[0]["num_images"],
             "fixed": len(wrong0 - still), "remaining": len(still),
             "final_wrong": last["num_wrong"], "final_models": last["num_models"],
-            "pruning_pooled": _pooled(reports)}
+            "pruning_pooled": pooled_pruning(reports)}
 
 
-def _pooled(reports: list[dict]) -> dict | None:
+def pooled_pruning(reports: list[dict]) -> dict | None:
     """Pruning over all rounds: precision of every deleted pair; recall against the false pairs
     of the first reconstruction's database (each later round starts from what is left of them)."""
     rounds = [r["pruning"] for r in reports[1:] if r.get("pruning")]
@@ -120,7 +120,7 @@ def print_report(result: dict) -> None:
         times = " ".join(f"{k} {v}" for k, v in report["seconds"].items())
         print("  ".join(cells) + f"  {scores:>14}   {times}")
     summary = dict(result["summary"])
-    pooled = summary.pop("pruning_pooled")
+    pooled = summary.pop("pruning_pooled", None)
     print("summary: " + ", ".join(f"{k} {v}" for k, v in summary.items()))
     if pooled:
         print(f"pruning over all rounds: P {pooled['precision']:.2f}, R {pooled['recall']:.2f}, "

@@ -4,7 +4,7 @@ from statistics import fmean
 
 from guided_sfm.core import evaluation
 from guided_sfm.core.truth import load_truth
-from guided_sfm.demo import run_demo
+from guided_sfm.demo import pooled_pruning, run_demo
 
 from .conftest import TINY_OPTIONS
 
@@ -32,3 +32,18 @@ def test_one_round_fixes_the_folded_cameras(tmp_path):
     round1 = result["rounds"][1]
     assert round1["pruning"]["precision"] >= 0.8 and round1["pruning"]["recall"] >= 0.8
     assert (tmp_path / "round1" / "edits.json").is_file()
+
+
+def test_pruning_is_pooled_over_the_rounds():
+    def round_(deleted, true_deleted, false_pairs):
+        return {"pruning": {"deleted": deleted, "true_deleted": true_deleted,
+                            "false_pairs": false_pairs}}
+
+    # recall counts against round 1's false pairs: round 2 starts from what round 1 left
+    pooled = pooled_pruning([{}, round_(10, 9, 12), round_(2, 1, 3)])
+    assert (pooled["deleted"], pooled["true_deleted"], pooled["false_pairs"]) == (12, 10, 12)
+    assert pooled["precision"] == 10 / 12 and pooled["recall"] == 10 / 12
+    assert pooled["f1"] == 10 / 12
+    assert pooled_pruning([{}]) is None  # no round pruned
+    nothing = pooled_pruning([{}, round_(0, 0, 0)])
+    assert (nothing["precision"], nothing["recall"]) == (1.0, 1.0)

@@ -33,10 +33,11 @@ RANSAC_MAX_ERROR = 4e-3  # ~2 px at a 500 px focal length, on unit rays
 MIN_INLIER_SHARE = 0.7  # of the verified inliers, for the pair's own relative pose to count
 YAW_STEPS = 15  # yaw samples across the allowed range; a residual minimum is wide for a true pair
 RING = 16  # translation directions sampled on the rim of the placement's baseline cone
-# A pair the RMS would cut is refitted this often, each match weighted 1 / its residual (deg,
-# at least the floor): a few steps of iteratively reweighted least squares towards the pose
-# that leaves the smallest absolute residuals, which a minority of stray matches cannot pull.
+# A pair the RMS would cut is judged again: for each candidate rotation its translation is refitted
+# this often, each match weighted 1 / its residual (deg, at least the floor): iteratively
+# reweighted least squares towards the smallest absolute residuals, which strays cannot pull.
 IRLS_STEPS, IRLS_FLOOR_DEG = 2, 0.05
+RECHECKED_CANDIDATES = 5  # of the YAW_STEPS rotations, those with the lowest RMS
 # [t]x = sum_m t_m GENERATORS[m]
 GENERATORS = np.array([[[0, 0, 0], [0, 0, -1], [0, 1, 0]],
                        [[0, 0, 1], [0, 0, 0], [-1, 0, 0]],
@@ -83,36 +84,35 @@ def smallest_eigen(symmetric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return value, best / np.maximum(norms.max(axis=-1), 1e-300)[..., None]
 
 
-def epipolar_fit(moments: np.ndarray, counts: np.ndarray, b_from_a: np.ndarray,
-                 baseline: np.ndarray, half_angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(P, K) RMS algebraic epipolar residual (~ sine of a ray's angle to its epipolar plane) of
-    each pair's matches under K rotations (P, K, 3, 3), each with its best unit translation within
-    half_angle (rad) of the placement's baseline direction (b's frame) or its opposite; and those
-    translations (P, K, 3)."""
-    basis = (GENERATORS[None, None] @ b_from_a[:, :, None]).reshape(*b_from_a.shape[:2], 3, 9)
-    reduced = basis @ (moments[:, None] @ np.swapaxes(basis, 2, 3))
-    value, vector = smallest_eigen(reduced)
+def cone_minimum(scatter: np.ndarray, baseline: np.ndarray, half_angle: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest t^T S t over unit t within half_angle (rad) of +-baseline, per (P, K) matrix S
+    (P, K, 3, 3), and the t (P, K, 3) that reaches it; baseline (P, 3), half_angle (P,)."""
+    value, vector = smallest_eigen(scatter)
     inside = np.abs(np.einsum("pki,pi->pk", vector, baseline)) >= np.cos(half_angle)[:, None]
     ring = np.broadcast_to(_cone_directions(baseline, half_angle)[:, None],
-                           (*reduced.shape[:2], RING, 3))
-    ring_values = ((ring @ reduced) * ring).sum(axis=3)
+                           (*scatter.shape[:2], RING, 3))
+    ring_values = ((ring @ scatter) * ring).sum(axis=3)
     lowest = ring_values.argmin(axis=2)[..., None]
     on_ring = np.take_along_axis(ring_values, lowest, axis=2)[..., 0]
     ring_best = np.take_along_axis(ring, lowest[..., None], axis=2)[:, :, 0]
-    axis = np.broadcast_to(baseline[:, None, None], (*reduced.shape[:2], 1, 3))
-    on_axis = ((axis @ reduced) * axis).sum(axis=3)[..., 0]
+    axis = np.broadcast_to(baseline[:, None, None], (*scatter.shape[:2], 1, 3))
+    on_axis = ((axis @ scatter) * axis).sum(axis=3)[..., 0]
     # the cone's best is its interior minimum when the free optimum lies inside, else on its rim
     rim = np.where((on_ring <= on_axis)[..., None], ring_best, axis[:, :, 0])
     best = np.where(inside, value, np.minimum(on_ring, on_axis))
-    translation = np.where(inside[..., None], vector, rim)
-    return np.sqrt(np.maximum(best, 0.0) / counts[:, None]), translation
+    return best, np.where(inside[..., None], vector, rim)
 
 
-def epipolar_residuals(a: np.ndarray, b: np.ndarray, pair: np.ndarray, b_from_a: np.ndarray,
-                       translation: np.ndarray) -> np.ndarray:
-    """Per ray pair: |b . (t x R a)| under its pair's pose (R (P, 3, 3), t (P, 3))."""
-    turned = np.einsum("nij,nj->ni", b_from_a[pair], a)
-    return np.abs(np.einsum("ni,ni->n", b, np.cross(translation[pair], turned)))
+def epipolar_rms(moments: np.ndarray, counts: np.ndarray, b_from_a: np.ndarray,
+                 baseline: np.ndarray, half_angle: np.ndarray) -> np.ndarray:
+    """(P, K) RMS algebraic epipolar residual (~ sine of a ray's angle to its epipolar plane) of
+    each pair's matches under K rotations (P, K, 3, 3), each with its best unit translation within
+    half_angle (rad) of the placement's baseline direction (b's frame) or its opposite."""
+    basis = (GENERATORS[None, None] @ b_from_a[:, :, None]).reshape(*b_from_a.shape[:2], 3, 9)
+    value, _ = cone_minimum(basis @ (moments[:, None] @ np.swapaxes(basis, 2, 3)), baseline,
+                            half_angle)
+    return np.sqrt(np.maximum(value, 0.0) / counts[:, None])
 
 
 def best_rms(moments: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -148,7 +148,8 @@ def baseline_cones(placement: Placement, rows: np.ndarray, tolerances: Tolerance
 def rotation_test(flat: FlatMatches, placement: Placement, evidence: Evidence,
                   tolerances: Tolerances, decided: np.ndarray | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(removed, evaluated, best epipolar residual deg near the placement) per tested pair.
+    """(removed, evaluated, epipolar residual deg near the placement: the RMS, or the median
+    where re-judged) per tested pair.
 
     Pairs marked `decided` (cut by another test) skip the costlier per-pair two-view check.
     """
@@ -187,13 +188,12 @@ def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Toleran
     """(cut, residual deg): no rotation in the yaw range explains the matches (vectorised).
 
     The residual is the RMS under the best pose; where that is above the limit, the pair is
-    judged again by its median match under a pose refitted with weights ~ 1 / residual (IRLS
-    towards the least absolute residuals). A pair stays when the placement explains most of its
-    matches, though a minority (look-alikes in a true pair, by design.md's definition up to half
-    of them, or rays a slightly wrong model tilt leaves off) pushes the RMS past the limit.
+    judged again by its median match (robust_residual). A pair stays when the placement explains
+    most of its matches, though a minority (look-alikes in a true pair, by design.md's definition
+    up to half of them, or rays a slightly wrong model tilt leaves off) pushes the RMS past it.
     """
     moments = epipolar_moments(rays[0], rays[1], pair, len(counts))
-    rms, _ = epipolar_fit(moments, counts, candidates, *cones)
+    rms = epipolar_rms(moments, counts, candidates, *cones)
     residual = np.degrees(np.arcsin(np.minimum(rms.min(axis=1), 1.0)))
     limit = np.degrees(np.minimum(np.maximum(
         np.radians(tolerances.epipolar_deg),
@@ -201,27 +201,34 @@ def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Toleran
     again = np.flatnonzero(residual > limit)
     if len(again):
         keep = np.isin(pair, again)
-        residual[again] = robust_residual([side[keep] for side in rays],
-                                          np.searchsorted(again, pair[keep]), counts[again],
-                                          candidates[again], [c[again] for c in cones])
+        # strays raise every candidate's RMS, the right one's least: re-judge the lowest few
+        likely = np.argsort(rms[again], axis=1)[:, :RECHECKED_CANDIDATES]
+        residual[again] = robust_residual(
+            [side[keep] for side in rays], np.searchsorted(again, pair[keep]),
+            np.take_along_axis(candidates[again], likely[..., None, None], axis=1),
+            [c[again] for c in cones])
     return residual > limit, residual
 
 
-def robust_residual(rays, pair, counts, candidates, cones) -> np.ndarray:
-    """(P,) median epipolar residual (deg) of each pair's matches under its best pose, the pose
-    refitted IRLS_STEPS times with weights 1 / max(residual, IRLS_FLOOR_DEG)."""
+def robust_residual(rays, pair, candidates, cones) -> np.ndarray:
+    """(P,) lowest median epipolar residual (deg) of each pair's matches over its candidate
+    rotations (P, K, 3, 3), each with its translation refitted by IRLS: IRLS_STEPS refits with
+    every match weighted 1 / max(its residual, IRLS_FLOOR_DEG). Pairs are contiguous in `pair`."""
     a, b = rays
-    count, index = len(counts), np.arange(len(counts))
-    weight = np.ones(len(pair))
+    count = len(candidates)
+    starts = np.searchsorted(pair, np.arange(count))
+    # b . (t x R a) = t . ((R a) x b): linear in t, so a weighted 3x3 scatter per pair fits it
+    normals = np.cross(np.einsum("nkij,nj->nki", candidates[pair], a), b[:, None])
+    outer = (normals[..., :, None] * normals[..., None, :]).reshape(len(pair), -1, 9)
+    weight = np.ones(normals.shape[:2])
     for _ in range(IRLS_STEPS + 1):
-        moments = epipolar_moments(a * np.sqrt(weight)[:, None], b, pair, count)
-        rms, translation = epipolar_fit(moments, np.bincount(pair, weight, count), candidates,
-                                        *cones)
-        best = rms.argmin(axis=1)
-        sines = epipolar_residuals(a, b, pair, candidates[index, best], translation[index, best])
+        scatter = np.add.reduceat(weight[..., None] * outer, starts).reshape(count, -1, 3, 3)
+        _, translation = cone_minimum(scatter, *cones)
+        sines = np.abs(np.einsum("nki,nki->nk", translation[pair], normals))
         degrees = np.degrees(np.arcsin(np.minimum(sines, 1.0)))
         weight = 1.0 / np.maximum(degrees, IRLS_FLOOR_DEG)
-    return segment_median(degrees, pair, count)
+    medians = [segment_median(degrees[:, k], pair, count) for k in range(degrees.shape[1])]
+    return np.min(medians, axis=0)
 
 
 def reoriented(model_rel: np.ndarray, candidates: np.ndarray, span_deg: np.ndarray) -> np.ndarray:
