@@ -35,7 +35,7 @@ YAW_STEPS = 15  # yaw samples across the allowed range; a residual minimum is wi
 RING = 16  # translation directions sampled on the rim of the placement's baseline cone
 # A pair the RMS would cut is judged again: for each candidate rotation its translation is refitted
 # this often, each match weighted 1 / its residual (deg, at least the floor): iteratively
-# reweighted least squares towards the smallest absolute residuals, which strays cannot pull.
+# reweighted least squares towards the smallest absolute residuals, which strays pull little.
 IRLS_STEPS, IRLS_FLOOR_DEG = 2, 0.05
 RECHECKED_CANDIDATES = 5  # of the YAW_STEPS rotations, those with the lowest RMS
 # [t]x = sum_m t_m GENERATORS[m]
