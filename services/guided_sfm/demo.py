@@ -7,7 +7,7 @@ import tempfile
 from pathlib import Path
 
 from guided_sfm import sample
-from guided_sfm.core import evaluation, simulated_user, workspace
+from guided_sfm.core import evaluation, metrics, simulated_user, workspace
 from guided_sfm.core.sfm import SfmOptions
 from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.core.truth import load_truth
@@ -87,9 +87,7 @@ def pooled_pruning(reports: list[dict]) -> dict | None:
         return None
     deleted = sum(r["deleted"] for r in rounds)
     hits = sum(r["true_deleted"] for r in rounds)
-    precision = hits / deleted if deleted else 1.0
-    recall = hits / rounds[0]["false_pairs"] if rounds[0]["false_pairs"] else 1.0
-    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
+    precision, recall, f1 = metrics.scores_from_counts(hits, deleted, rounds[0]["false_pairs"])
     return {"deleted": deleted, "true_deleted": hits, "false_pairs": rounds[0]["false_pairs"],
             "precision": precision, "recall": recall, "f1": f1}
 

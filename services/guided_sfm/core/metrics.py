@@ -207,10 +207,14 @@ def evaluate(est: Mapping[str, CameraPose], truth: Mapping[str, CameraPose], num
 def pruning_scores(deleted: set[PairKey], false_pairs: set[PairKey]) -> tuple[float, float, float]:
     """(precision, recall, F1) of deleted pairs against false ones; an empty side scores 1.0."""
     deleted, false_pairs = set(deleted), set(false_pairs)
-    hits = len(deleted & false_pairs)
+    return scores_from_counts(len(deleted & false_pairs), len(deleted), len(false_pairs))
+
+
+def scores_from_counts(hits: int, deleted: int, false_pairs: int) -> tuple[float, float, float]:
+    """(precision, recall, F1) from counts: deleted pairs, false pairs, and false ones deleted."""
     # Deleting nothing makes no wrong deletion; with no false pair there is nothing to miss.
-    precision = hits / len(deleted) if deleted else 1.0
-    recall = hits / len(false_pairs) if false_pairs else 1.0
+    precision = hits / deleted if deleted else 1.0
+    recall = hits / false_pairs if false_pairs else 1.0
     if not deleted and not false_pairs:
         return 1.0, 1.0, 1.0
     f1 = 2 * precision * recall / (precision + recall) if hits else 0.0
