@@ -91,8 +91,10 @@ export class Preview {
     if (!preview) return;
     const tests = Object.entries(preview.removed_by_test ?? {}).map(([t, n]) => `${t}: ${n}`).join(", ");
     const head = document.createElement("p");
+    const kept = (preview.kept_to_connect ?? []).length;
     head.textContent = `Components: ${preview.components_before} before, ${preview.components_after} after.` +
-      (tests ? ` Removed by test: ${tests}.` : "");
+      (tests ? ` Removed by test: ${tests}.` : "") +
+      (kept ? ` Kept ${kept} pair(s) only the placement test cut, so no group of images is cut off.` : "");
     list.append(head);
     const reasons = new Map((preview.reasons ?? []).map((r) => [pairKey(...r.pair), r.tests]));
     const ul = document.createElement("ul");

@@ -126,7 +126,8 @@ def cmd_prune(args: argparse.Namespace) -> None:
         print_table([("deleted pairs", len(record["deleted_pairs"])),
                      ("components before", record["components_before"]),
                      ("components after", record["components_after"]),
-                     ("removed by test", record["removed_by_test"])])
+                     ("removed by test", record["removed_by_test"]),
+                     ("kept to connect", len(record["kept_to_connect"]))])
 
 
 def cmd_map(args: argparse.Namespace) -> None:

@@ -8,8 +8,11 @@ import pytest
 
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.errors import InvalidInput
-from guided_sfm.core.placement import ground_moves
+from guided_sfm.core.evidence import flat_matches
+from guided_sfm.core.placement import ground_moves, place
 from guided_sfm.core.pruning import prune_pairs
+from guided_sfm.core.relative_pose import relative_pose_test
+from guided_sfm.core.relative_rotation import rotation_test
 from guided_sfm.core.tolerances import Tolerances, resolve
 from guided_sfm.core.types import GroundFrame
 
@@ -74,12 +77,24 @@ def _orbit(rng) -> tuple[Capture, set, set]:
     return capture, true_pairs, false_pairs
 
 
-def test_orbit_false_pairs_fall_to_the_rotation_test():
+def _moved_pairs(capture: Capture, moved: set) -> np.ndarray:
+    return np.array(sorted(p for p in capture.pairs() if set(p) & moved))
+
+
+def test_orbit_false_pairs_fall_to_the_pairs_own_geometry():
     capture, true_pairs, false_pairs = _orbit(np.random.default_rng(0))
     edits = capture.placement(capture.cluster, turn_deg=8.0)
     result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
     assert set(result.deleted) == false_pairs
-    assert all("rotation" in result.reasons[p] for p in false_pairs)
+    # the model holds each false pair at a quarter turn the placement undoes
+    assert all("relative_pose" in result.reasons[p] for p in false_pairs)
+    # and without that verdict the relative-rotation test alone cuts the same pairs
+    tested = _moved_pairs(capture, capture.cluster)
+    evidence = capture.evidence()
+    moved = {e.image_id: e for e in edits.cameras}
+    rotated, _, _ = rotation_test(flat_matches(evidence, tested),
+                                  place(capture.scene(), moved, evidence), evidence, Tolerances())
+    assert {tuple(p) for p in tested[rotated].tolist()} == false_pairs
     # the triangles of cameras a quarter turn apart both reach the pillar: the paper's rule keeps them
     paper = capture.placement(capture.cluster, rule="paper", turn_deg=8.0)
     assert not set(prune_pairs(capture.scene(range_=2.6), paper, capture.pairs()).deleted) & false_pairs
@@ -118,6 +133,54 @@ def test_twin_objects_false_pairs_fall_to_the_placement_test():
     assert all("placement" in result.reasons[p] for p in false_pairs)
     paper = capture.placement(capture.cluster, rule="paper", shift=0.3, turn_deg=-10.0)
     assert set(prune_pairs(capture.scene(), paper, capture.pairs()).deleted).isdisjoint(false_pairs)
+
+
+def _relative_pose_verdicts(capture: Capture, edits, tolerances: Tolerances
+                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    evidence, scene = capture.evidence(), capture.scene()
+    moved = {e.image_id: e for e in edits.cameras}
+    tested = _moved_pairs(capture, set(moved))
+    removed, evaluated, _ = relative_pose_test(flat_matches(evidence, tested),
+                                               place(scene, moved, evidence),
+                                               place(scene, {}, evidence), evidence, tolerances)
+    return tested, removed, evaluated
+
+
+@pytest.mark.parametrize("turn_deg", [-10.0, 10.0])
+def test_twins_false_pairs_fall_to_the_relative_pose_test_whatever_the_angle_tolerance(turn_deg):
+    # The model ties each folded camera to the left box; the placement moves it 1.6 m right.
+    capture, true_pairs, false_pairs = _twins(np.random.default_rng(3))
+    edits = capture.placement(capture.cluster, shift=0.3, turn_deg=turn_deg)
+    tested, removed, evaluated = _relative_pose_verdicts(
+        capture, edits, resolve({"placement_deg": 170.0}))
+    cut = {tuple(p) for p in tested[removed].tolist()}
+    assert cut == false_pairs
+    assert evaluated.all()  # every pair agrees with the model that made it
+    result = prune_pairs(capture.scene(), dataclasses.replace(
+        edits, tolerances={"placement_deg": 170.0}), capture.pairs(), capture.evidence())
+    assert true_pairs.isdisjoint(result.deleted) and false_pairs <= set(result.deleted)
+
+
+def test_the_relative_pose_test_judges_only_pairs_that_agree_with_the_model():
+    # Camera 7 sits 1 m off in the model while its matches say where it really is: its pairs
+    # disagree with the model, so moving it back is not this test's business.
+    capture, _, _ = _twins(np.random.default_rng(4))
+    capture.cluster, capture.motion = {7}, ground_motion(0.0, (1.0, 0.0, 0.0))
+    tested, removed, evaluated = _relative_pose_verdicts(
+        capture, capture.placement({7}), Tolerances())
+    touching = np.array([7 in p for p in tested.tolist()])
+    assert touching.all() and not evaluated.any() and not removed.any()
+
+
+def test_a_move_within_the_users_uncertainty_cuts_nothing():
+    # An unfolded model, two neighbours nudged by about the simulated user's error.
+    capture, true_pairs, _ = _twins(np.random.default_rng(5))
+    capture.cluster, capture.motion = set(), ground_motion(0.0, (0.0, 0.0, 0.0))
+    for shift, turn in ((0.3, 10.0), (-0.3, -15.0)):
+        tested, removed, evaluated = _relative_pose_verdicts(
+            capture, capture.placement({2, 3}, shift=shift, turn_deg=turn), Tolerances())
+        true = np.array([tuple(p) in true_pairs for p in tested.tolist()])
+        assert true.sum() >= 7 and evaluated[true].all() and not removed.any()
 
 
 def test_a_camera_without_3d_points_takes_the_frustum_test_only():

@@ -49,5 +49,5 @@ def test_default_rule_cuts_the_tiny_scenes_false_pairs(tiny_workspace_ro, tiny_s
     assert status.wrong and false, "the tiny scene is expected to fold (see test_sample.py)"
     precision, recall, _ = metrics.pruning_scores(set(outcome.deleted), false)
     assert precision >= 0.95 and recall >= 0.9
-    assert set(outcome.removed_by_test) <= {"placement", "rotation", "frustum"}
+    assert set(outcome.removed_by_test) <= {"placement", "relative_pose", "rotation", "frustum"}
     assert outcome.components_after == outcome.components_before

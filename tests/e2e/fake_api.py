@@ -112,7 +112,7 @@ class FakeApi:
         return {"pairs_to_delete": [list(p) for p in sorted(cut)],
                 "components_before": components(self.pairs),
                 "components_after": components(kept, {i for p in self.pairs for i in p}),
-                "removed_by_test": {"fake": len(cut)},
+                "removed_by_test": {"fake": len(cut)}, "kept_to_connect": [],
                 "reasons": [{"pair": list(p), "tests": ["fake"]} for p in sorted(cut)]}
 
 

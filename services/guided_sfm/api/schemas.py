@@ -164,6 +164,7 @@ class PreviewOut(Out):
     components_before: int
     components_after: int
     removed_by_test: dict[str, int]
+    kept_to_connect: list[list[int]]
     reasons: list[ReasonOut]
 
 

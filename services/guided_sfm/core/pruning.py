@@ -13,8 +13,10 @@ import shapely
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
 from guided_sfm.core.evidence import Evidence, flat_matches
 from guided_sfm.core.frustum import frustum_polygons
+from guided_sfm.core.match_graph import components
 from guided_sfm.core.match_placement import placement_test
 from guided_sfm.core.placement import place
+from guided_sfm.core.relative_pose import relative_pose_test
 from guided_sfm.core.relative_rotation import rotation_test
 from guided_sfm.core.tolerances import Tolerances, resolve
 from guided_sfm.core.types import CameraEdit, EditSet, PairKey, PruneResult, TopDownScene, pair_key
@@ -22,6 +24,7 @@ from guided_sfm.core.types import CameraEdit, EditSet, PairKey, PruneResult, Top
 FRUSTUM = "frustum"
 PLACEMENT = "placement"
 ROTATION = "rotation"
+RELATIVE_POSE = "relative_pose"
 MANUAL = "manual"
 
 PlacedPose = tuple[float, float, float, float | None, float]  # x, y, yaw_deg, fov_deg, range
@@ -133,20 +136,27 @@ def _paper_rule(rule_input: RuleInput) -> dict[str, np.ndarray]:
 
 
 def _default_rule(rule_input: RuleInput) -> dict[str, np.ndarray]:
-    """Match placement and relative rotation where the pair has evidence, else the frustum."""
+    """Match placement, relative pose and relative rotation where the pair has evidence, else the
+    frustum."""
     tested, evidence = rule_input.tested, rule_input.evidence
     if evidence is None:
         return _paper_rule(rule_input)
     if not evidence.rows:  # no tested camera is in the model (e.g. all in a smaller one)
         nothing = np.zeros(len(tested), dtype=bool)
-        return {**_paper_rule(rule_input), PLACEMENT: nothing, ROTATION: nothing}
+        return {**_paper_rule(rule_input), PLACEMENT: nothing, RELATIVE_POSE: nothing,
+                ROTATION: nothing}
     flat = flat_matches(evidence, tested)
     placement = place(rule_input.scene, rule_input.moved, evidence)
-    placed_out, judged, _ = placement_test(flat, placement, evidence, rule_input.tolerances)
-    rotated_out, _, _ = rotation_test(flat, placement, evidence, rule_input.tolerances, placed_out)
+    tolerances = rule_input.tolerances
+    placed_out, judged, _ = placement_test(flat, placement, evidence, tolerances)
+    shifted_out, _, _ = relative_pose_test(flat, placement, place(rule_input.scene, {}, evidence),
+                                           evidence, tolerances)
+    rotated_out, _, _ = rotation_test(flat, placement, evidence, tolerances,
+                                      placed_out | shifted_out)
     frustum_out = np.zeros(len(tested), dtype=bool)
     frustum_out[~judged] = frustum_test(tested[~judged], rule_input.poses)
-    return {FRUSTUM: frustum_out, PLACEMENT: placed_out, ROTATION: rotated_out}
+    return {FRUSTUM: frustum_out, PLACEMENT: placed_out, RELATIVE_POSE: shifted_out,
+            ROTATION: rotated_out}
 
 
 RULES: dict[str, Callable[[RuleInput], dict[str, np.ndarray]]] = {
@@ -173,8 +183,32 @@ def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int
     verdicts = rule(RuleInput(tested, poses, scene, moved, tolerances, evidence))
     for test, removed in verdicts.items():
         _add_reason(reasons, zip(*tested[removed].T.tolist(), strict=True), test)
+    kept = links_to_keep(pairs, reasons, manual) if edits.rule == "default" else []
+    for key in kept:
+        del reasons[key]
     _add_reason(reasons, dict.fromkeys(manual), MANUAL)
-    return PruneResult(deleted=sorted(reasons), reasons=reasons)
+    return PruneResult(deleted=sorted(reasons), reasons=reasons, kept=kept)
+
+
+def links_to_keep(pairs: Mapping[PairKey, int], reasons: Mapping[PairKey, tuple[str, ...]],
+                   manual: list[PairKey]) -> list[PairKey]:
+    """Cut pairs to keep so that the default rule never cuts a group of images off the rest.
+
+    Only pairs cut by the match-placement test alone are kept: their own two-view geometry and
+    their agreement with the model did not object, and the angle that cut them measures the
+    user's placement error as much as the pair. All such pairs between parts the cuts separated
+    are kept: one link alone registers a group poorly.
+    """
+    cut = set(reasons) | set(manual)
+    before = {image_id: index for index, group in enumerate(components(pairs, manual))
+              for image_id in group}
+    after = {image_id: index for index, group in enumerate(components(pairs, cut))
+             for image_id in group}
+    if max(after.values(), default=0) == max(before.values(), default=0):
+        return []
+    return sorted(key for key, tests in reasons.items()
+                  if tests == (PLACEMENT,) and after[key[0]] != after[key[1]]
+                  and before[key[0]] == before[key[1]])
 
 
 def _add_reason(reasons: dict[PairKey, tuple[str, ...]], keys, test: str) -> None:

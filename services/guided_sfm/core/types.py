@@ -125,6 +125,8 @@ class PruneResult:
 
     deleted: list[PairKey]
     reasons: dict[PairKey, tuple[str, ...]]
+    # pairs a test would have cut, kept because cutting them splits the match graph
+    kept: list[PairKey]
 
     @property
     def removed_by_test(self) -> dict[str, int]:

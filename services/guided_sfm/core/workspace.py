@@ -182,6 +182,7 @@ def preview(workspace: Path, edits: EditSet) -> PruneOutcome:
     return PruneOutcome(
         deleted=result.deleted,
         reasons=result.reasons,
+        kept=result.kept,
         components_before=match_graph.count_components(pairs),
         components_after=match_graph.count_components(pairs, result.deleted),
     )
@@ -232,6 +233,7 @@ def pruning_record(outcome: PruneOutcome, names: dict[int, str]) -> dict:
         "components_before": outcome.components_before,
         "components_after": outcome.components_after,
         "removed_by_test": outcome.removed_by_test,
+        "kept_to_connect": sorted(sorted((names[a], names[b])) for a, b in outcome.kept),
     }
 
 
