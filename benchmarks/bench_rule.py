@@ -21,6 +21,7 @@ from guided_sfm.core import workspace
 from guided_sfm.core.match_placement import placement_test
 from guided_sfm.core.placement import place
 from guided_sfm.core.pruning import _tested_pairs, frustum_test, placed_poses, prune_pairs
+from guided_sfm.core.relative_pose import relative_pose_test
 from guided_sfm.core.relative_rotation import rotation_test
 from guided_sfm.core.tolerances import Tolerances
 from guided_sfm.core.types import CameraEdit, EditSet
@@ -95,9 +96,12 @@ def bench_synthetic(count: int, neighbours: int, runs: int) -> None:
         "placement (3D moves)": lambda: place(scene, moved, evidence),
     }
     flat, placement = ev.flat_matches(evidence, tested), place(scene, moved, evidence)
+    unmoved = place(scene, {}, evidence)
     steps |= {
         "frustum test": lambda: frustum_test(tested, poses),
         "match-placement test": lambda: placement_test(flat, placement, evidence, tolerances),
+        "relative-pose test": lambda: relative_pose_test(flat, placement, unmoved, evidence,
+                                                         tolerances),
         "relative-rotation test": lambda: rotation_test(flat, placement, evidence, tolerances),
         "whole rule (prune_pairs)": lambda: prune_pairs(scene, edits, pairs, evidence),
     }
