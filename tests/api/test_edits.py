@@ -134,6 +134,7 @@ def test_preview_lists_pairs_in_rest_ids(client, reconstructed):
     assert len(moved_pairs) >= 1  # a camera thrown 50 units away sees none of its partners
     assert data["components_before"] >= 1 and sum(data["removed_by_test"].values()) >= len(moved_pairs)
     assert {tuple(r["pair"]) for r in data["reasons"]} == {tuple(p) for p in data["pairs_to_delete"]}
+    assert data["kept_to_connect"] == []  # the paper's rule keeps nothing
 
 
 def test_apply_queues_a_job_and_refuses_a_stale_base(client, reconstructed, submitted, session):

@@ -57,6 +57,7 @@ def test_prune_dry_run_json_names_pairs_and_writes_nothing(tiny_workspace, tmp_p
     assert all(p == sorted(p) for p in result["deleted_pairs"])
     assert result["deleted_pairs"] == sorted(result["deleted_pairs"])
     assert result["components_after"] >= 1 and "removed_by_test" in result
+    assert result["kept_to_connect"] == []  # the paper's rule keeps nothing
     assert not (tmp_path / "new").exists()
 
 

@@ -183,6 +183,38 @@ def test_a_move_within_the_users_uncertainty_cuts_nothing():
         assert true.sum() >= 7 and evaluated[true].all() and not removed.any()
 
 
+@pytest.mark.parametrize(("turn_deg", "cut"), [(15.0, False), (-15.0, False), (35.0, True)])
+def test_two_moved_cameras_turned_alike_are_forgiven_up_to_their_yaw_freedom(turn_deg, cut):
+    # Cameras 0 and 4, 1.4 m apart, both turned the same: the partner swings by the chord the
+    # turn sweeps at that distance. Two moved members are free by 20 + 10 deg; the position
+    # allowance is made tiny so that the yaw term alone decides.
+    capture, _, _ = _twins(np.random.default_rng(6))
+    capture.cluster = set()
+    edits = capture.placement({0, 4}, turn_deg=turn_deg)
+    tested, removed, evaluated = _relative_pose_verdicts(
+        capture, edits, resolve({"position_share": 0.001}))
+    both = [tuple(p) for p in tested.tolist()].index((0, 4))
+    assert evaluated[both] and removed[both] == cut
+    assert removed.sum() == cut  # pairs with one member turned in place do not move its partner
+
+
+def test_the_guard_keeps_the_links_only_the_placement_test_cut():
+    # Camera 2 nudged within the user's uncertainty while placement_deg is set absurdly tight:
+    # the placement test alone would cut all of camera 2's pairs and isolate it.
+    capture, _, _ = _twins(np.random.default_rng(7))
+    capture.cluster = set()
+    edits = capture.placement({2}, shift=0.3, turn_deg=10.0, placement_deg=0.5)
+    touching = {p for p in capture.pairs() if 2 in p}
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    assert set(result.kept) == touching and not result.deleted
+    # a manual deletion stays deleted and is never reported as kept
+    manual = min(touching)
+    with_manual = dataclasses.replace(edits, delete_pairs=[manual])
+    result = prune_pairs(capture.scene(), with_manual, capture.pairs(), capture.evidence())
+    assert result.deleted == [manual] and set(result.kept) == touching - {manual}
+    assert result.reasons[manual] == ("placement", "manual")
+
+
 def test_a_camera_without_3d_points_takes_the_frustum_test_only():
     capture, _, _ = _twins(np.random.default_rng(2))
     capture.unpointed = {5, 6, 7, 8, 9} | set(range(5))

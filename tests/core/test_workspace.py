@@ -87,3 +87,19 @@ def test_unknown_image_and_missing_workspace_are_clear_errors(tiny_workspace, tm
 def test_unknown_sfm_option_names_the_choices(option, value):
     with pytest.raises(InvalidInput, match=f"unknown .*{value}.*choose one of"):
         SfmOptions(**{option: value})
+
+
+def test_prune_records_the_links_it_kept_to_connect(tiny_workspace_ro, tmp_path):
+    # A camera left where it is, with placement_deg far below any real residual: the placement
+    # test alone would cut all its pairs; they are kept and named instead of deleted.
+    scene = workspace.load_scene(tiny_workspace_ro)
+    camera = [c for c in scene.cameras if c.registered][5]
+    edits = EditSet([CameraEdit(camera.image_id, camera.x, camera.y, camera.yaw_deg)],
+                    rule="default", tolerances={"placement_deg": 0.001})
+    outcome = workspace.prune(tiny_workspace_ro, edits, tmp_path / "next")
+    touching = {p for p in workspace.verified_pairs(tiny_workspace_ro) if camera.image_id in p}
+    assert touching and set(outcome.kept) == touching and not outcome.deleted
+    assert outcome.components_after == outcome.components_before
+    record = json.loads((tmp_path / "next" / workspace.PRUNING).read_text())
+    assert len(record["kept_to_connect"]) == len(touching)
+    assert all(camera.name in pair for pair in record["kept_to_connect"])

@@ -183,7 +183,7 @@ def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int
     verdicts = rule(RuleInput(tested, poses, scene, moved, tolerances, evidence))
     for test, removed in verdicts.items():
         _add_reason(reasons, zip(*tested[removed].T.tolist(), strict=True), test)
-    kept = links_to_keep(pairs, reasons, manual) if edits.rule == "default" else []
+    kept = links_to_keep(pairs, reasons, manual)  # (the paper's rule has no placement test)
     for key in kept:
         del reasons[key]
     _add_reason(reasons, dict.fromkeys(manual), MANUAL)
@@ -191,24 +191,22 @@ def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int
 
 
 def links_to_keep(pairs: Mapping[PairKey, int], reasons: Mapping[PairKey, tuple[str, ...]],
-                   manual: list[PairKey]) -> list[PairKey]:
-    """Cut pairs to keep so that the default rule never cuts a group of images off the rest.
+                  manual: list[PairKey]) -> list[PairKey]:
+    """Cut pairs to keep so that the match-placement test alone never cuts a group of images off.
 
-    Only pairs cut by the match-placement test alone are kept: their own two-view geometry and
-    their agreement with the model did not object, and the angle that cut them measures the
-    user's placement error as much as the pair. All such pairs between parts the cuts separated
-    are kept: one link alone registers a group poorly.
+    Kept: the pairs that test alone cut (not the relative-pose test, not the rotation test's
+    epipolar stage, not the user by hand) and that join two parts the cuts separated. Its angle
+    measures the user's placement error as much as the pair; with no link left, a group of cameras
+    cannot be registered at all, let alone where the user put it. All such links are kept: one
+    alone registers a group poorly.
     """
-    cut = set(reasons) | set(manual)
-    before = {image_id: index for index, group in enumerate(components(pairs, manual))
-              for image_id in group}
-    after = {image_id: index for index, group in enumerate(components(pairs, cut))
+    manual_keys = set(manual)
+    after = {image_id: index
+             for index, group in enumerate(components(pairs, set(reasons) | manual_keys))
              for image_id in group}
-    if max(after.values(), default=0) == max(before.values(), default=0):
-        return []
     return sorted(key for key, tests in reasons.items()
-                  if tests == (PLACEMENT,) and after[key[0]] != after[key[1]]
-                  and before[key[0]] == before[key[1]])
+                  if tests == (PLACEMENT,) and key not in manual_keys
+                  and after[key[0]] != after[key[1]])
 
 
 def _add_reason(reasons: dict[PairKey, tuple[str, ...]], keys, test: str) -> None:

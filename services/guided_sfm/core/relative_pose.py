@@ -24,9 +24,10 @@ from guided_sfm.core.tolerances import Tolerances
 AGREEMENT_FACTOR = 2.0
 
 
-def partner_offsets(rotations: np.ndarray, translations: np.ndarray, rows: np.ndarray
-                    ) -> np.ndarray:
+def partner_offsets(cam_from_world_rotations: np.ndarray, cam_from_world_translations: np.ndarray,
+                    rows: np.ndarray) -> np.ndarray:
     """(P, 2, 3): per pair, each member's partner centre in that member's camera frame."""
+    rotations, translations = cam_from_world_rotations, cam_from_world_translations
     centers = -np.einsum("nji,nj->ni", rotations, translations)
     offsets = []
     for own, other in ((0, 1), (1, 0)):
@@ -39,25 +40,32 @@ def relative_pose_test(flat: FlatMatches, placement: Placement, unmoved: Placeme
                        evidence: Evidence, tolerances: Tolerances
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(removed, evaluated, shift / allowed shift) per tested pair; pairs that do not agree with
-    the model, or have too few 3D points, get no verdict (NaN)."""
+    the model, or have too few 3D points, get no verdict (NaN).
+
+    Ranges are the scene's (median point depth, model units), neither `range_scale` nor an
+    edit's own range: they size the uncertainty of a placement, not a frustum.
+    """
     count = len(flat.counts)
     angles, pairs = carried_angles(flat, unmoved, evidence)
     enough = np.bincount(pairs, minlength=count) >= tolerances.placement_min_points
     agrees = segment_median(angles, pairs, count) < AGREEMENT_FACTOR * tolerances.epipolar_deg
-    evaluated = enough & agrees & (flat.rows >= 0).all(axis=1)
+    evaluated = enough & agrees  # (carried_angles has no points for a member outside the model)
     ratio = np.full(count, np.nan)
     rows = flat.rows[evaluated]
     if len(rows) == 0:
         return np.zeros(count, dtype=bool), evaluated, ratio
-    model = partner_offsets(evidence.rotations, evidence.translations, rows)
-    placed = partner_offsets(placement.rotations, placement.translations, rows)
-    # Seen from either member the change is the same up to that member's yaw error: the smaller
-    # of the two is the one the uncertainty below must explain.
-    shift = np.linalg.norm(placed - model, axis=2).min(axis=1)
-    moved = placement.moved[rows]
-    yaw = np.radians(tolerances.rotation_deg
-                     + tolerances.yaw_uncertainty_deg * np.maximum(moved.sum(axis=1) - 1, 0))
-    allowed = (tolerances.position_share * (placement.ranges[rows] * moved).sum(axis=1)
-               + 2 * np.sin(yaw / 2) * np.linalg.norm(model, axis=2).min(axis=1))
-    ratio[evaluated] = shift / allowed
+    model_offsets = partner_offsets(evidence.rotations, evidence.translations, rows)
+    placed_offsets = partner_offsets(placement.rotations, placement.translations, rows)
+    # Cut only when the change is too large seen from both members. With one member moved the
+    # unmoved one's view sees just the moved centre's shift, which no yaw error explains; the
+    # yaw term below matters when both moved.
+    shift = np.linalg.norm(placed_offsets - model_offsets, axis=2).min(axis=1)
+    moved_rows = placement.moved[rows]
+    yaw_rad = np.radians(tolerances.rotation_deg + tolerances.yaw_uncertainty_deg
+                         * np.maximum(moved_rows.sum(axis=1) - 1, 0))
+    # the chord a yaw error sweeps at the pair's 3D distance (>= the horizontal one: lenient)
+    distance = np.linalg.norm(model_offsets, axis=2).min(axis=1)
+    allowed = (tolerances.position_share * (placement.ranges[rows] * moved_rows).sum(axis=1)
+               + 2 * np.sin(yaw_rad / 2) * distance)
+    ratio[evaluated] = shift / np.maximum(allowed, 1e-12)
     return evaluated & (ratio > 1.0), evaluated, ratio

@@ -125,7 +125,7 @@ class PruneResult:
 
     deleted: list[PairKey]
     reasons: dict[PairKey, tuple[str, ...]]
-    # pairs a test would have cut, kept because cutting them splits the match graph
+    # pairs the match-placement test alone cut, kept because cutting them splits the match graph
     kept: list[PairKey]
 
     @property
