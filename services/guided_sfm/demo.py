@@ -38,7 +38,9 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
     truth = load_truth(truth_file)
     first = evaluation.evaluate_workspace(base, truth_file)
     reports = [{"round": 0, **first, "seconds": clock.take()}]
-    status = evaluation.camera_status(base, truth)
+    # status says who the simulated user moves; the round's report must judge "wrong before"
+    # on the same alignment, so it is given the reference that status was aligned on.
+    reference, status = None, evaluation.camera_status(base, truth)
     for number in range(1, rounds + 1):
         targets = [n for n in status.wrong + status.unregistered if n in truth.cameras]
         if not targets:
@@ -51,7 +53,7 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
             outcome = workspace.prune(base, edits, new)
         mapped = workspace.map_again(new, options=options, progress=clock, cold=cold)
         report = evaluation.evaluate_workspace(new, truth_file, reference_from=base,
-                                               before_reference=status.right)
+                                               before_reference=reference)
         reports.append({"round": number, **report, "num_moved": len(edits.cameras),
                         "components_before": outcome.components_before,
                         "components_after": outcome.components_after,
@@ -59,7 +61,8 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
                         "map_mode": mapped.mode, "map_fallback": mapped.fallback,
                         "seconds": clock.take()})
         # "Right" keeps one meaning across rounds: align on what was right before this round.
-        status = evaluation.camera_status(new, truth, reference=status.right)
+        reference = status.right
+        status = evaluation.camera_status(new, truth, reference=reference)
         base = new
     return {"layout": layout, "rule": rule, "seed": seed, "tolerances": dict(tolerances or {}),
             "rounds": reports,
