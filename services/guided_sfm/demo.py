@@ -66,19 +66,22 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         base = new
     return {"layout": layout, "rule": rule, "seed": seed, "tolerances": dict(tolerances or {}),
             "rounds": reports,
-            "summary": _summary(reports)}
+            "summary": _summary(reports, status)}
 
 
-def _summary(reports: list[dict]) -> dict:
-    """Wrong cameras of the first reconstruction and how many of them the loop fixed."""
+def _summary(reports: list[dict], final: evaluation.CameraStatus) -> dict:
+    """Wrong cameras of the first reconstruction, how many of them the loop fixed, and their
+    rotation error at the end (a round's report covers only the cameras moved in it)."""
     wrong0 = set(reports[0]["wrong"]) | set(reports[0]["unregistered"])
     last = reports[-1]
     still = (set(last["wrong"]) | set(last["unregistered"])) & wrong0
+    errors = [final.errors[n].rotation_deg for n in sorted(wrong0) if n in final.errors]
     return {"initially_wrong": len(reports[0]["wrong"]),
             "initially_unregistered": len(reports[0]["unregistered"]),
             "num_images": reports[0]["num_images"],
             "fixed": len(wrong0 - still), "remaining": len(still),
             "final_wrong": last["num_wrong"], "final_models": last["num_models"],
+            "final_rotation_mae_deg": round(sum(errors) / len(errors), 3) if errors else None,
             "pruning_pooled": pooled_pruning(reports)}
 
 

@@ -2,6 +2,8 @@
 
 from statistics import fmean
 
+import pytest
+
 from guided_sfm.core import evaluation
 from guided_sfm.core.truth import load_truth
 from guided_sfm.demo import pooled_pruning, run_demo
@@ -29,6 +31,7 @@ def test_one_round_fixes_the_folded_cameras(tmp_path):
     fixed = fmean(final.errors[n].rotation_deg for n in first["wrong"])
     assert floor <= MAX_FLOOR_DEG, f"the whole model is misoriented: {floor:.1f} deg"
     assert fixed <= floor + MAX_ROTATION_ABOVE_FLOOR_DEG, (fixed, floor)
+    assert result["summary"]["final_rotation_mae_deg"] == pytest.approx(fixed, abs=1e-3)
     round1 = result["rounds"][1]
     assert round1["pruning"]["precision"] >= 0.8 and round1["pruning"]["recall"] >= 0.8
     assert (tmp_path / "round1" / "edits.json").is_file()
