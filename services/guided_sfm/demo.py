@@ -75,13 +75,13 @@ def _summary(reports: list[dict], final: evaluation.CameraStatus) -> dict:
     wrong0 = set(reports[0]["wrong"]) | set(reports[0]["unregistered"])
     last = reports[-1]
     still = (set(last["wrong"]) | set(last["unregistered"])) & wrong0
-    errors = [final.errors[n].rotation_deg for n in sorted(wrong0) if n in final.errors]
     return {"initially_wrong": len(reports[0]["wrong"]),
             "initially_unregistered": len(reports[0]["unregistered"]),
             "num_images": reports[0]["num_images"],
             "fixed": len(wrong0 - still), "remaining": len(still),
             "final_wrong": last["num_wrong"], "final_models": last["num_models"],
-            "final_rotation_mae_deg": round(sum(errors) / len(errors), 3) if errors else None,
+            "final_rotation_mae_deg": evaluation.target_errors(final, sorted(wrong0))[
+                "rotation_mae_deg"],
             "pruning_pooled": pooled_pruning(reports)}
 
 
@@ -125,7 +125,7 @@ def print_report(result: dict) -> None:
         print("  ".join(cells) + f"  {scores:>14}   {times}")
     summary = dict(result["summary"])
     pooled = summary.pop("pruning_pooled", None)
-    print("summary: " + ", ".join(f"{k} {v}" for k, v in summary.items()))
+    print("summary: " + ", ".join(f"{k} {_cell(v)}" for k, v in summary.items()))
     if pooled:
         print(f"pruning over all rounds: P {pooled['precision']:.2f}, R {pooled['recall']:.2f}, "
               f"F1 {pooled['f1']:.2f} ({pooled['true_deleted']} of {pooled['deleted']} deleted "

@@ -141,8 +141,7 @@ def _relative_pose_verdicts(capture: Capture, edits, tolerances: Tolerances
     moved = {e.image_id: e for e in edits.cameras}
     tested = _moved_pairs(capture, set(moved))
     removed, evaluated, _ = relative_pose_test(flat_matches(evidence, tested),
-                                               place(scene, moved, evidence),
-                                               place(scene, {}, evidence), evidence, tolerances)
+                                               place(scene, moved, evidence), evidence, tolerances)
     return tested, removed, evaluated
 
 

@@ -49,7 +49,7 @@ def camera_status(ws: Path, truth: Truth, reference: list[str] | None = None) ->
                         sorted(all_names - set(poses)), len(models), sim)
 
 
-def _target_errors(status: CameraStatus, targets: list[str]) -> dict[str, float | None]:
+def target_errors(status: CameraStatus, targets: list[str]) -> dict[str, float | None]:
     found = [status.errors[n] for n in targets if n in status.errors]
     if not found:
         return {"translation_mse": None, "rotation_mae_deg": None}
@@ -94,7 +94,7 @@ def evaluate_workspace(ws: Path, truth_file: Path, reference_from: Path | None =
         "unregistered": status.unregistered,
     }
     targets = before.wrong if before else sorted(status.errors)
-    report.update(_target_errors(status, targets))
+    report.update(target_errors(status, targets))
     if before:
         fixed = sorted(set(before.wrong) & set(status.right))
         report.update({"num_targets": len(targets), "num_fixed": len(fixed), "fixed": fixed,

@@ -149,8 +149,7 @@ def _default_rule(rule_input: RuleInput) -> dict[str, np.ndarray]:
     placement = place(rule_input.scene, rule_input.moved, evidence)
     tolerances = rule_input.tolerances
     placed_out, judged, _ = placement_test(flat, placement, evidence, tolerances)
-    shifted_out, _, _ = relative_pose_test(flat, placement, place(rule_input.scene, {}, evidence),
-                                           evidence, tolerances)
+    shifted_out, _, _ = relative_pose_test(flat, placement, evidence, tolerances)
     rotated_out, _, _ = rotation_test(flat, placement, evidence, tolerances,
                                       placed_out | shifted_out)
     frustum_out = np.zeros(len(tested), dtype=bool)

@@ -12,6 +12,8 @@ pair's distance, and the placement's position error adds at most one range share
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from guided_sfm.core.evidence import Evidence, FlatMatches
@@ -36,8 +38,17 @@ def partner_offsets(cam_from_world_rotations: np.ndarray, cam_from_world_transla
     return np.stack(offsets, axis=1)
 
 
-def relative_pose_test(flat: FlatMatches, placement: Placement, unmoved: Placement,
-                       evidence: Evidence, tolerances: Tolerances
+def left_in_place(placement: Placement, evidence: Evidence) -> Placement:
+    """The same placement with no camera moved: every member at its model pose."""
+    count = len(placement.moved)
+    return dataclasses.replace(placement, move_rotations=np.tile(np.eye(3), (count, 1, 1)),
+                               move_translations=np.zeros((count, 3)),
+                               rotations=evidence.rotations, translations=evidence.translations,
+                               moved=np.zeros(count, dtype=bool))
+
+
+def relative_pose_test(flat: FlatMatches, placement: Placement, evidence: Evidence,
+                       tolerances: Tolerances
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(removed, evaluated, shift / allowed shift) per tested pair; pairs that do not agree with
     the model, or have too few 3D points, get no verdict (NaN).
@@ -46,7 +57,7 @@ def relative_pose_test(flat: FlatMatches, placement: Placement, unmoved: Placeme
     edit's own range: they size the uncertainty of a placement, not a frustum.
     """
     count = len(flat.counts)
-    angles, pairs = carried_angles(flat, unmoved, evidence)
+    angles, pairs = carried_angles(flat, left_in_place(placement, evidence), evidence)
     enough = np.bincount(pairs, minlength=count) >= tolerances.placement_min_points
     agrees = segment_median(angles, pairs, count) < AGREEMENT_FACTOR * tolerances.epipolar_deg
     evaluated = enough & agrees  # (carried_angles has no points for a member outside the model)
