@@ -11,8 +11,7 @@ ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1 PIP_DISABLE_
 RUN dpkg -s libgomp1 >/dev/null 2>&1 || { apt-get update \
     && apt-get install -y --no-install-recommends libgomp1 && rm -rf /var/lib/apt/lists/*; }
 
-# pip reads these when the build passes them: a mirror (PIP_INDEX_URL) or a wheelhouse.
-ARG PIP_INDEX_URL
+# pip reads these when the build passes them (a wheelhouse instead of the index).
 ARG PIP_NO_INDEX
 ARG PIP_FIND_LINKS
 

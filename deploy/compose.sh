@@ -36,6 +36,8 @@ case "${1:-}" in
     fi ;;
   down)
     shift
+    [ -f .env ] && set -a && . ./.env && set +a
+    export GUIDED_SFM_SECRET_KEY=${GUIDED_SFM_SECRET_KEY:-not-needed-to-stop-the-stack}  # the file must parse
     if docker info >/dev/null 2>&1; then
       docker compose down $([ "${1:-}" = --purge ] && echo --volumes)
     else

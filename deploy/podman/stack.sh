@@ -79,7 +79,7 @@ build_images() {  # the project's Dockerfile as a Docker host builds it, but fro
   podman build "${args[@]}" --build-arg "MOTO_SPEC=$MOTO" -t "$S3" -f "$HERE/s3.Containerfile" "$HERE" >>"$LOG"
 }
 
-in_app() { podman run --rm --network host "$APP" python -c "$1"; }
+in_app() { podman run --rm --network host --no-healthcheck "$APP" python -c "$1"; }
 
 database() {  # the stack's own database in the machine's Postgres (trust auth on loopback)
   in_app "
@@ -91,7 +91,8 @@ with psycopg.connect('host=127.0.0.1 user=postgres dbname=postgres', autocommit=
 }
 
 compose() {
-  podman-compose --podman-path "$HERE/podman-hostnet" -p "$PROJECT" -f "$CACHE/compose.yml" "$@" >>"$LOG" 2>&1
+  podman-compose --podman-path "$HERE/podman-hostnet" -p "$PROJECT" -f "$CACHE/compose.yml" "$@" >>"$LOG" 2>&1 \
+    || { tail -n 15 "$LOG" >&2; return 1; }
 }
 
 port_free() { ! (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
