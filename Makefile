@@ -30,7 +30,7 @@ test: install
 	else echo "--- Postgres not reachable on 127.0.0.1:5432: its pass is skipped ---"; fi
 
 lint: install
-	$(BIN)/ruff check services worker tests benchmarks migrations
+	$(BIN)/ruff check services worker tests benchmarks migrations deploy
 
 bench: install
 	$(BIN)/python benchmarks/bench_pruning.py

@@ -32,25 +32,13 @@ def local(compose: dict, database_url: str, broker_url: str, s3_port: str, api_p
         del services[name]
     s3_url = f"http://127.0.0.1:{s3_port}"
     for name, service in services.items():
-        service["network_mode"] = "host"
-        service["hostname"] = f"{compose['name']}-{name}"  # else the machine's: a container is told apart
-        service.pop("ports", None)
-        deps = service.get("depends_on", {})
-        for machine_service in MACHINE_SERVICES:
-            deps.pop(machine_service, None)
-        if not deps:
-            service.pop("depends_on", None)
+        on_host_network(service, f"{compose['name']}-{name}")
         env = service.get("environment", {})
         if "GUIDED_SFM_S3_ENDPOINT_URL" in env:
             env["GUIDED_SFM_S3_ENDPOINT_URL"] = s3_url
         if "GUIDED_SFM_DATABASE_URL" in env:
             env.update(GUIDED_SFM_DATABASE_URL=database_url, GUIDED_SFM_BROKER_URL=broker_url)
-    services["minio"].update(image=S3_IMAGE, environment={},
-                             command=["moto_server", "--host", "127.0.0.1", "--port", s3_port],
-                             healthcheck={**services["minio"]["healthcheck"], "test": http_check(s3_url)})
-    services["minio"].pop("volumes", None)  # moto keeps the bucket in memory
-    services["minio-init"].update(image=S3_IMAGE, command=["python", "/usr/local/bin/create_bucket.py"])
-    services["minio-init"].pop("entrypoint", None)
+    s3_stand_in(services, s3_port, s3_url)
     api = services["api"]
     api.pop("build", None)
     api["command"] = [*api["command"][:-1], api_port]
@@ -59,8 +47,29 @@ def local(compose: dict, database_url: str, broker_url: str, s3_port: str, api_p
     for service in services.values():
         if "healthcheck" in service:  # podman-compose 1.0.3 mangles the exec form
             service["healthcheck"]["test"] = ["CMD-SHELL", shlex.join(service["healthcheck"]["test"][1:])]
-    compose["volumes"] = {name: None for name in ("miniodata", "artifacts")}
+    compose["volumes"] = {k: v for k, v in compose["volumes"].items() if k not in ("pgdata", "redisdata")}
     return {key: value for key, value in compose.items() if not key.startswith("x-")}
+
+
+def on_host_network(service: dict, hostname: str) -> None:
+    service["network_mode"] = "host"
+    service["hostname"] = hostname  # else the machine's own: the worker's container is told apart
+    service.pop("ports", None)
+    deps = service.get("depends_on", {})
+    for name in MACHINE_SERVICES:
+        deps.pop(name, None)
+    if not deps:
+        service.pop("depends_on", None)
+
+
+def s3_stand_in(services: dict, s3_port: str, s3_url: str) -> None:
+    minio, init = services["minio"], services["minio-init"]
+    minio.update(image=S3_IMAGE, environment={},
+                 command=["moto_server", "--host", "127.0.0.1", "--port", s3_port],
+                 healthcheck={**minio["healthcheck"], "test": http_check(s3_url)})
+    minio.pop("volumes", None)  # moto keeps the bucket in memory
+    init.update(image=S3_IMAGE, command=["python", "/usr/local/bin/create_bucket.py"])
+    init.pop("entrypoint", None)
 
 
 def main() -> None:
