@@ -43,7 +43,7 @@ base_image() {  # Debian bookworm (Python 3.11) with what the images need; minut
   podman image exists "$BASE" && return
   local tarball=$CACHE/base-bookworm.tar rootfs=$CACHE/rootfs
   if [ ! -f "$tarball" ]; then
-    say "debootstrap of Debian bookworm into $rootfs (once; about 10 minutes)"
+    say "debootstrap of Debian bookworm into $rootfs (once; 2 to 13 minutes measured here)"
     rm -rf "$rootfs"
     debootstrap --variant=minbase --include=python3,python3-venv,libgomp1 bookworm "$rootfs" >>"$LOG"
     rm -rf "$rootfs"/var/cache/apt/archives/*.deb "$rootfs"/var/lib/apt/lists/*
