@@ -2,8 +2,9 @@
 # The compose stack where no Docker engine answers: podman + podman-compose (Debian's), on the
 # host network, with the machine's own Postgres and Redis and moto's S3 server in place of MinIO.
 # No container registry is reachable, so the images are built here: a Debian bookworm base made
-# with debootstrap, the Python packages from a wheelhouse built on the host (the builds run with
-# --network none). Both are cached outside the repository, so a second `up` takes seconds.
+# with debootstrap, the Python packages from a wheelhouse made beforehand (`pip wheel` in a
+# throwaway container of the base; the builds run with --network none). Both are cached outside
+# the repository, so a second `up` takes under a minute.
 #   deploy/podman/stack.sh up | down [--purge]     (make compose-up / make compose-down)
 # --purge also removes the stack's volumes, its database and its Redis database number.
 set -euo pipefail
