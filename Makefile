@@ -4,7 +4,7 @@ VENV ?= .venv
 BIN = $(VENV)/bin
 POSTGRES_TEST_URL ?= postgresql+psycopg://postgres@127.0.0.1:5432/postgres
 
-.PHONY: install run demo test lint bench
+.PHONY: install run demo test lint bench compose-up compose-down
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,8 +30,16 @@ test: install
 	else echo "--- Postgres not reachable on 127.0.0.1:5432: its pass is skipped ---"; fi
 
 lint: install
-	$(BIN)/ruff check services worker tests benchmarks migrations
+	$(BIN)/ruff check services worker tests benchmarks migrations deploy
 
 bench: install
 	$(BIN)/python benchmarks/bench_pruning.py
 	$(BIN)/python benchmarks/bench_rule.py
+
+# The compose stack, detached (README, "Deployment"): docker compose, else podman with this
+# machine's override. `make compose-down` stops it; the volumes stay.
+compose-up:
+	deploy/compose.sh up
+
+compose-down:
+	deploy/compose.sh down
