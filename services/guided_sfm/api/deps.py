@@ -11,12 +11,11 @@ from sqlalchemy.orm import Session
 
 from guided_sfm.api import security
 from guided_sfm.db import queries
-from guided_sfm.db.models import Job, Project, User, Version
+from guided_sfm.db.models import MAX_ID, Job, Project, User, Version
 from guided_sfm.errors import Forbidden, NotFound, Unauthorized
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
-MAX_ID = 2**31 - 1  # SQL integer ids; larger values would overflow the database driver
 PathId = Annotated[int, Path(ge=1, le=MAX_ID)]
 bearer = OAuth2PasswordBearer(tokenUrl="/api/v1/auth/token", auto_error=False)
 

@@ -10,7 +10,6 @@ from guided_sfm.actions import export as export_action
 from guided_sfm.actions import restore as restore_action
 from guided_sfm.actions import version_data
 from guided_sfm.api.deps import (
-    MAX_ID,
     CurrentUser,
     EditorProject,
     PathId,
@@ -21,7 +20,7 @@ from guided_sfm.api.deps import (
 )
 from guided_sfm.api.schemas import CompareOut, PairOut, VersionOut
 from guided_sfm.db import queries
-from guided_sfm.db.models import Version
+from guided_sfm.db.models import MAX_ID, Version
 from guided_sfm.errors import NotFound
 
 router = APIRouter(prefix="/projects/{pid}/versions", tags=["versions"])
