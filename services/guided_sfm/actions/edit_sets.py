@@ -10,15 +10,14 @@ from sqlalchemy.orm import Session
 from guided_sfm.core.edits import edits_to_json, parse_edits
 from guided_sfm.core.errors import InvalidInput, UnknownImage
 from guided_sfm.db import queries
-from guided_sfm.db.models import EditSetRow, Project, utcnow
-from guided_sfm.errors import Conflict, NotFound, PreconditionRequired
+from guided_sfm.db.models import EditSetRow, Project, Version, utcnow
+from guided_sfm.errors import Conflict, PreconditionRequired
 
 
 def validate(session: Session, project: Project, body: dict[str, Any]) -> dict[str, Any]:
     """The normalized body (REST image ids); raises naming the first problem found."""
     base_id = body.get("base_version_id")
-    if queries.version_in_project(session, project.id, base_id) is None:
-        raise NotFound(f"version {base_id} is not a version of project {project.id}")
+    queries.in_project(session, Version, project.id, base_id)
     ids = queries.image_ids_by_name(session, project.id)
     known = set(ids.values())
     edits = parse_edits(body, ids)
