@@ -4,7 +4,6 @@ from typing import Annotated
 
 from fastapi import APIRouter, Header, Response
 
-from guided_sfm import jobs
 from guided_sfm.actions import edit_sets, version_data
 from guided_sfm.api.deps import (
     CurrentUser,
@@ -19,7 +18,6 @@ from guided_sfm.api.deps import (
 from guided_sfm.api.schemas import ApplyIn, EditSetIn, EditSetOut, JobOut, PreviewOut
 from guided_sfm.db import queries
 from guided_sfm.db.models import EditSetRow, Job, Version
-from guided_sfm.errors import Conflict
 
 router = APIRouter(prefix="/projects/{pid}/edits", tags=["edits"])
 
@@ -69,9 +67,4 @@ def preview(row: ViewerEditSet, session: SessionDep, store: StoreDep) -> dict:
 @router.post("/{eid}/apply", status_code=202, response_model=JobOut)
 def apply(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
           submit: SubmitDep, body: ApplyIn | None = None) -> Job:
-    if row.base_version_id != project.head_version_id:
-        raise Conflict(f"edit set {row.id} is based on version {row.base_version_id}, but the head is "
-                       f"version {project.head_version_id}; rebase it first")
-    params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body,
-              "remap": (body or ApplyIn()).remap}
-    return jobs.queue(session, submit, project, "apply", user.id, params, row.base_version_id)
+    return edit_sets.apply(session, submit, project, row, user.id, (body or ApplyIn()).remap)
