@@ -20,8 +20,8 @@ from guided_sfm.db.models import (
 )
 from guided_sfm.errors import NotFound
 
-NOUNS = {Image: "image", Version: "version", EditSetRow: "edit set", Job: "job"}  # in 404 messages
-InProject = TypeVar("InProject", Image, Version, EditSetRow, Job)
+NOUNS = {Image: "image", Version: "version", EditSetRow: "edit set"}  # in 404 messages
+InProject = TypeVar("InProject", Image, Version, EditSetRow)
 
 
 def user_by_name(session: Session, username: str) -> User | None:
