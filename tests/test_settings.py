@@ -29,3 +29,23 @@ def test_secret_is_generated_once_and_private(tmp_path):
     first, second = settings.with_secret(), settings.with_secret()
     assert first.secret_key == second.secret_key and len(first.secret_key) > 32
     assert (tmp_path / "secret_key").stat().st_mode & 0o777 == 0o600
+
+
+NUMERIC = {"THREADS": ("3", 3), "MAX_UPLOAD_MB": ("5", 5), "TOKEN_MINUTES": ("9", 9),
+           "MAX_ATTEMPTS": ("4", 4), "SWEEP_SECONDS": ("1.5", 1.5), "HEARTBEAT_SECONDS": ("2.5", 2.5),
+           "STALE_SECONDS": ("7.5", 7.5), "REQUEUE_SECONDS": ("8", 8.0)}
+
+
+def test_every_numeric_setting_is_read_from_its_variable(tmp_path):
+    env = {f"GUIDED_SFM_{key}": raw for key, (raw, _) in NUMERIC.items()}
+    settings = Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path), **env})
+    assert {key: getattr(settings, key.lower()) for key in NUMERIC} == {k: v for k, (_, v) in NUMERIC.items()}
+    assert type(settings.threads) is int and type(settings.requeue_seconds) is float
+
+
+@pytest.mark.parametrize("key", sorted(NUMERIC))
+def test_a_bad_number_names_its_variable(tmp_path, key):
+    expected = "an integer" if isinstance(NUMERIC[key][1], int) else "a number"
+    for raw in ("lots", "1.5x") if expected == "a number" else ("lots", "1.5"):
+        with pytest.raises(SettingsError, match=f"GUIDED_SFM_{key} must be {expected}, got '{raw}'"):
+            Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path), f"GUIDED_SFM_{key}": raw})

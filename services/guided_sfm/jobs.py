@@ -9,14 +9,14 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from datetime import UTC, datetime, timedelta
+from datetime import timedelta
 from typing import Any
 
 from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
-from guided_sfm.db.models import Job, Project
+from guided_sfm.db.models import Job, Project, utcnow
 from guided_sfm.db.session import session_scope
 from guided_sfm.errors import Conflict
 
@@ -24,16 +24,12 @@ log = logging.getLogger(__name__)
 REPORT_SECONDS = 1.0  # progress writes are throttled to about one a second
 
 
-def now() -> datetime:
-    return datetime.now(UTC)
-
-
 def create(session: Session, project: Project, kind: str, user_id: int | None,
            params: dict[str, Any] | None = None, base_version_id: int | None = None) -> Job:
     """Insert a queued job (flushed, not committed); Conflict when the project has an active job."""
     job = Job(project_id=project.id, kind=kind, state="queued", stage="queued", progress=0.0,
               message="", params=params or {}, created_by=user_id, cancel_requested=False,
-              attempts=0, base_version_id=base_version_id, enqueued_at=now())
+              attempts=0, base_version_id=base_version_id, enqueued_at=utcnow())
     try:
         with session.begin_nested():
             session.add(job)
@@ -44,7 +40,7 @@ def create(session: Session, project: Project, kind: str, user_id: int | None,
 
 def claim(session: Session, job_id: int) -> bool:
     """queued -> running, atomically; False when the job is no longer queued (already taken)."""
-    stamp = now()
+    stamp = utcnow()
     result = session.execute(
         update(Job).where(Job.id == job_id, Job.state == "queued")
         .values(state="running", stage="starting", started_at=stamp, heartbeat_at=stamp,
@@ -57,7 +53,7 @@ def claim(session: Session, job_id: int) -> bool:
 def finish(session: Session, job_id: int, state: str, *, message: str = "", error: str | None = None,
            version_id: int | None = None, timings: dict[str, Any] | None = None) -> bool:
     """running -> succeeded/failed/cancelled; False (nothing changed) if someone already ended it."""
-    values: dict[str, Any] = {"state": state, "finished_at": now(), "stage": state, "error": error,
+    values: dict[str, Any] = {"state": state, "finished_at": utcnow(), "stage": state, "error": error,
                               "timings": timings}
     if message:
         values["message"] = message
@@ -73,7 +69,8 @@ def request_cancel(session: Session, job: Job) -> None:
     """A queued job is cancelled at once; a running one gets the flag its worker checks."""
     if job.state == "queued":
         session.execute(update(Job).where(Job.id == job.id, Job.state == "queued").values(
-            state="cancelled", stage="cancelled", finished_at=now(), message="cancelled before it started"))
+            state="cancelled", stage="cancelled", finished_at=utcnow(),
+            message="cancelled before it started"))
     elif job.state == "running":
         session.execute(update(Job).where(Job.id == job.id).values(cancel_requested=True))
     else:
@@ -100,7 +97,7 @@ class Reporter:
         try:
             with session_scope(self.sessions) as session:
                 session.execute(update(Job).where(Job.id == self.job_id, Job.state == "running")
-                                .values(heartbeat_at=now(), **values))
+                                .values(heartbeat_at=utcnow(), **values))
                 session.commit()
         except OperationalError:  # a busy SQLite file: progress is advisory, the next write retries
             log.warning("job %s: progress write skipped (database busy)", self.job_id)
@@ -108,17 +105,17 @@ class Reporter:
 
 def beat(session: Session, job_id: int) -> bool:
     """Touch the heartbeat; returns whether a cancel was requested."""
-    session.execute(update(Job).where(Job.id == job_id, Job.state == "running").values(heartbeat_at=now()))
+    session.execute(update(Job).where(Job.id == job_id, Job.state == "running").values(heartbeat_at=utcnow()))
     session.commit()
     return bool(session.scalar(select(Job.cancel_requested).where(Job.id == job_id)))
 
 
 def lost_messages(session: Session, older_than: float) -> list[int]:
     """Queued jobs not (re)submitted for `older_than` seconds; marks them resubmitted now."""
-    cutoff = now() - timedelta(seconds=older_than)
+    cutoff = utcnow() - timedelta(seconds=older_than)
     ids = list(session.scalars(select(Job.id).where(Job.state == "queued", Job.enqueued_at < cutoff)))
     if ids:
-        session.execute(update(Job).where(Job.id.in_(ids)).values(enqueued_at=now()))
+        session.execute(update(Job).where(Job.id.in_(ids)).values(enqueued_at=utcnow()))
     session.commit()
     return ids
 
@@ -126,14 +123,14 @@ def lost_messages(session: Session, older_than: float) -> list[int]:
 def recover_stale(session: Session, older_than: float, max_attempts: int = 2) -> tuple[list[int], list[int]]:
     """Running jobs whose heartbeat stopped (their worker died): queued again while they have
     attempts left, else failed. Returns (requeued ids, failed ids); the head is never touched."""
-    cutoff = now() - timedelta(seconds=older_than)
+    cutoff = utcnow() - timedelta(seconds=older_than)
     stale = session.execute(select(Job.id, Job.attempts).where(Job.state == "running",
                                                                Job.heartbeat_at < cutoff)).all()
     requeued, failed = [], []
     for job_id, attempts in stale:
         if attempts < max_attempts:
             session.execute(update(Job).where(Job.id == job_id, Job.state == "running").values(
-                state="queued", stage="queued", progress=0.0, enqueued_at=now(), heartbeat_at=None,
+                state="queued", stage="queued", progress=0.0, enqueued_at=utcnow(), heartbeat_at=None,
                 message=f"queued again: the worker running attempt {attempts} stopped"))
             requeued.append(job_id)
         else:

@@ -5,8 +5,9 @@ from __future__ import annotations
 import os
 import secrets
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import TypeVar
 from urllib.parse import urlsplit
 
 PREFIX = "GUIDED_SFM_"
@@ -14,6 +15,7 @@ DEFAULT_DATA_DIR = "data"  # relative to the working directory, like `serve --da
 DATABASE_SCHEMES = ("sqlite", "postgresql")
 BROKER_SCHEMES = ("redis", "rediss", "filesystem", "memory")
 TRUE, FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
+T = TypeVar("T", int, float)
 
 
 class SettingsError(ValueError):
@@ -46,16 +48,9 @@ class Settings:
             "data_dir": data_dir,
             "database_url": env.get(PREFIX + "DATABASE_URL") or f"sqlite:///{data_dir / 'guided_sfm.db'}",
             "broker_url": env.get(PREFIX + "BROKER_URL") or "filesystem://",
-            "threads": _int(env, "THREADS", 2),
             "open_signup": _bool(env, "OPEN_SIGNUP", True),
-            "max_upload_mb": _int(env, "MAX_UPLOAD_MB", 1024),
             "secret_key": env.get(PREFIX + "SECRET_KEY") or None,
-            "token_minutes": _int(env, "TOKEN_MINUTES", 7 * 24 * 60),
-            "sweep_seconds": _float(env, "SWEEP_SECONDS", 30.0),
-            "heartbeat_seconds": _float(env, "HEARTBEAT_SECONDS", 5.0),
-            "stale_seconds": _float(env, "STALE_SECONDS", 60.0),
-            "requeue_seconds": _float(env, "REQUEUE_SECONDS", 60.0),
-            "max_attempts": _int(env, "MAX_ATTEMPTS", 2),
+            **{name: _number(env, name.upper(), default) for name, default in _numeric_defaults()},
         }
         values.update(overrides)
         settings = cls(**values)  # type: ignore[arg-type]
@@ -105,20 +100,19 @@ class Settings:
         return replace(self, secret_key=path.read_text().strip())
 
 
-def _int(env: Mapping[str, str], name: str, default: int) -> int:
-    raw = env.get(PREFIX + name)
-    try:
-        return default if raw in (None, "") else int(raw)
-    except ValueError as exc:
-        raise SettingsError(f"{PREFIX}{name} must be an integer, got {raw!r}") from exc
+def _numeric_defaults() -> list[tuple[str, int | float]]:
+    """The numeric fields and their defaults; each is read from GUIDED_SFM_<FIELD NAME>."""
+    return [(f.name, f.default) for f in fields(Settings) if type(f.default) in (int, float)]
 
 
-def _float(env: Mapping[str, str], name: str, default: float) -> float:
-    raw = env.get(PREFIX + name)
+def _number(env: Mapping[str, str], name: str, default: T) -> T:
+    """A numeric setting parsed as its default's type; the default when unset or empty."""
+    raw, kind = env.get(PREFIX + name), type(default)
     try:
-        return default if raw in (None, "") else float(raw)
+        return default if raw in (None, "") else kind(raw)
     except ValueError as exc:
-        raise SettingsError(f"{PREFIX}{name} must be a number, got {raw!r}") from exc
+        what = "an integer" if kind is int else "a number"
+        raise SettingsError(f"{PREFIX}{name} must be {what}, got {raw!r}") from exc
 
 
 def _bool(env: Mapping[str, str], name: str, default: bool) -> bool:

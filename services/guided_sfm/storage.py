@@ -2,7 +2,8 @@
 
 Layout under the root: `projects/{pid}/images/` (the uploaded files, shared by every version),
 `projects/{pid}/thumbs/{image_id}.jpg`, `projects/{pid}/versions/{key}/` (one COLMAP workspace
-per version, never modified once published) and `projects/{pid}/tmp/` (work in progress).
+per version, never modified once published), `projects/{pid}/uploads/` (an import's zip until its
+job reads it) and `projects/{pid}/tmp/` (work in progress).
 """
 
 from __future__ import annotations
@@ -31,6 +32,12 @@ class ArtifactStore:
 
     def thumbnail(self, project_id: int, image_id: int) -> Path:
         return self.project_dir(project_id) / "thumbs" / f"{image_id}.jpg"
+
+    def uploads_dir(self, project_id: int) -> Path:
+        """Uploads kept for a queued job (an import's zip); made on first use."""
+        path = self.project_dir(project_id) / "uploads"
+        path.mkdir(parents=True, exist_ok=True)
+        return path
 
     def version_dir(self, relative: str) -> Path:
         return self.root / relative

@@ -1,7 +1,10 @@
 """Projects and members."""
 
-from guided_sfm.db.models import Image, Membership, Project
-from tests.factories import add_member, jpeg_bytes, make_project, signup
+import pytest
+
+from guided_sfm.db import queries
+from guided_sfm.db.models import Image, Job, Membership, Project, Version
+from tests.factories import PASSWORD, add_member, jpeg_bytes, make_project, signup, zip_bytes
 
 
 def test_create_list_get(client):
@@ -53,3 +56,54 @@ def test_delete_project_removes_rows_and_files(client, session, settings):
     session.expire_all()
     assert session.get(Project, pid) is None and session.query(Image).filter_by(project_id=pid).count() == 0
     assert not (settings.artifacts_dir / "projects" / str(pid)).exists()
+
+
+def test_project_and_member_actions_run_without_the_api(session, store):
+    """The rules live in actions taking a Session: owner membership, roles, the last owner."""
+    from guided_sfm.actions import accounts, members, projects
+    from guided_sfm.errors import Conflict, Forbidden, NotFound
+
+    alice, bob = (accounts.sign_up(session, True, name, PASSWORD, str.upper) for name in ("alice", "bob"))
+    with pytest.raises(Forbidden, match="OPEN_SIGNUP"):
+        accounts.sign_up(session, False, "carol", PASSWORD, str.upper)
+    with pytest.raises(Conflict, match="'bob' is taken"):
+        accounts.sign_up(session, True, "bob", PASSWORD, str.upper)
+    project = projects.create(session, alice.id, "hall", "d")
+    assert session.get(Membership, (project.id, alice.id)).role == "owner"
+    assert members.set_role(session, project, "bob", "editor").role == "editor"
+    with pytest.raises(Conflict, match="'alice' is the last owner"):
+        members.set_role(session, project, "alice", "viewer")
+    members.set_role(session, project, "bob", "owner")
+    members.set_role(session, project, "alice", "viewer")  # two owners: one may step down
+    with pytest.raises(Conflict, match="'bob' is the last owner"):
+        members.remove(session, project, "bob")
+    members.remove(session, project, "alice")
+    with pytest.raises(NotFound, match="'alice' is not a member"):
+        members.remove(session, project, "alice")
+    with pytest.raises(NotFound, match="no user named 'nobody'"):
+        members.set_role(session, project, "nobody", "viewer")
+    assert [(m.user.username, m.role) for m in queries.members(session, project.id)] == [("bob", "owner")]
+
+
+def test_delete_a_project_with_a_head_removes_versions_and_files(client, reconstructed, session, store):
+    s = reconstructed
+    version_dir = store.version_dir(session.get(Version, s.vid).path)
+    assert version_dir.is_dir()
+    assert client.delete(f"/api/v1/projects/{s.pid}", headers=s.owner).status_code == 204
+    session.expire_all()
+    assert session.get(Project, s.pid) is None and session.get(Version, s.vid) is None
+    assert not version_dir.exists() and not store.project_dir(s.pid).exists()
+
+
+def test_import_keeps_the_upload_only_for_a_queued_job(client, session, store, tmp_path):
+    alice = signup(client, "alice")
+    pid = make_project(client, alice)
+    archive = zip_bytes({"database.db": b"x", "sparse/0/cameras.bin": b"x", "images/a.jpg": jpeg_bytes()})
+    queued = client.post(f"/api/v1/projects/{pid}/import", files={"file": ("w.zip", archive)}, headers=alice)
+    assert queued.status_code == 202, queued.text
+    kept = list(store.uploads_dir(pid).iterdir())
+    params = session.get(Job, queued.json()["id"]).params
+    assert len(kept) == 1 and store.root / params["upload"] == kept[0]
+    again = client.post(f"/api/v1/projects/{pid}/import", files={"file": ("w.zip", archive)}, headers=alice)
+    assert again.status_code == 409 and "queued or running" in again.json()["detail"]
+    assert list(store.uploads_dir(pid).iterdir()) == kept

@@ -4,7 +4,7 @@ import pytest
 
 from guided_sfm import jobs
 from guided_sfm.actions import runner
-from guided_sfm.db.models import Job, Project, Version
+from guided_sfm.db.models import Job, Project, Version, utcnow
 from tests.factories import make_project, make_version, signup, workspace_zip
 
 
@@ -132,14 +132,14 @@ def test_sweeper_fails_silent_running_jobs_and_resends_lost_ones(client, headers
     headers, pid = headers_pid
     job_id = client.post(f"/api/v1/projects/{pid}/reconstruct", json={}, headers=headers).json()["id"]
     job = session.get(Job, job_id)
-    job.enqueued_at = jobs.now() - timedelta(minutes=5)
+    job.enqueued_at = utcnow() - timedelta(minutes=5)
     session.commit()
     resent = []
     result = sweeper.sweep(_Reusing(session), settings, resent.append)
     assert result == {"requeued": [], "failed": [], "resent": [job_id]} and resent == [job_id]
     for attempt in (1, 2):  # the worker dies twice: re-run once, then failed
         assert jobs.claim(session, job_id)
-        session.get(Job, job_id).heartbeat_at = jobs.now() - timedelta(minutes=5)
+        session.get(Job, job_id).heartbeat_at = utcnow() - timedelta(minutes=5)
         session.commit()
         result = sweeper.sweep(_Reusing(session), settings, resent.append)
         assert result["requeued" if attempt == 1 else "failed"] == [job_id]

@@ -29,8 +29,8 @@ def run(context: JobContext, work: Path) -> Produced:
     if remap:  # warm from the base model unless its guard falls back to a cold re-map
         mapped = ws.map_again(work, context.images_dir(), context.options(), context.progress,
                               context.cancel)
-    named = [(ids.sql(a), ids.sql(b), outcome.reasons.get((a, b), ())) for a, b in outcome.deleted]
-    deleted = [(min(a, b), max(a, b), tests) for a, b, tests in named if a is not None and b is not None]
+    reasons = ids.pairs_with((pair, outcome.reasons.get(pair, ())) for pair in outcome.deleted)
+    deleted = [(a, b, tests) for (a, b), tests in reasons]
     message = (f"edit set {job.params.get('edit_set_id')}: deleted {len(deleted)} pairs"
                + (f"; {mapped.message()}" if mapped else ", not mapped again"))
     return Produced(work, "apply", message, base.id, ws.stats(work), edits=body, deleted_pairs=deleted)

@@ -1,24 +1,26 @@
-"""Edit sets (drafts on a base version): validated at the edge, saved with optimistic concurrency."""
+"""Edit sets (drafts on a base version): validated at the edge, saved with optimistic concurrency,
+queued for application on the head."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from sqlalchemy import update
 from sqlalchemy.orm import Session
 
+from guided_sfm import jobs
 from guided_sfm.core.edits import edits_to_json, parse_edits
 from guided_sfm.core.errors import InvalidInput, UnknownImage
 from guided_sfm.db import queries
-from guided_sfm.db.models import EditSetRow, Project, utcnow
-from guided_sfm.errors import Conflict, NotFound, PreconditionRequired
+from guided_sfm.db.models import EditSetRow, Job, Project, Version, utcnow
+from guided_sfm.errors import Conflict, PreconditionRequired
 
 
 def validate(session: Session, project: Project, body: dict[str, Any]) -> dict[str, Any]:
     """The normalized body (REST image ids); raises naming the first problem found."""
     base_id = body.get("base_version_id")
-    if queries.version_in_project(session, project.id, base_id) is None:
-        raise NotFound(f"version {base_id} is not a version of project {project.id}")
+    queries.in_project(session, Version, project.id, base_id)
     ids = queries.image_ids_by_name(session, project.id)
     known = set(ids.values())
     edits = parse_edits(body, ids)
@@ -72,3 +74,13 @@ def replace(session: Session, project: Project, row: EditSetRow, body: dict[str,
 def delete(session: Session, row: EditSetRow) -> None:
     session.delete(row)
     session.commit()
+
+
+def apply(session: Session, submit: Callable[[int], None], project: Project, row: EditSetRow,
+          user_id: int, remap: bool) -> Job:
+    """Queue the edit set's application; 409 unless it is based on the head (rebase it first)."""
+    if row.base_version_id != project.head_version_id:
+        raise Conflict(f"edit set {row.id} is based on version {row.base_version_id}, but the head is "
+                       f"version {project.head_version_id}; rebase it first")
+    params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body, "remap": remap}
+    return jobs.queue(session, submit, project, "apply", user_id, params, row.base_version_id)

@@ -3,19 +3,55 @@
 from __future__ import annotations
 
 import zipfile
+from collections.abc import Callable
 from pathlib import Path, PurePosixPath
+from typing import BinaryIO
 
+from sqlalchemy.orm import Session
+
+from guided_sfm import jobs
 from guided_sfm.actions import uploads
 from guided_sfm.actions.context import JobContext, NewImage, Produced
 from guided_sfm.core import workspace as ws
 from guided_sfm.core.errors import InvalidInput
-from guided_sfm.errors import BadUpload
+from guided_sfm.db import queries
+from guided_sfm.db.models import Job, Project
+from guided_sfm.errors import BadUpload, Conflict
+from guided_sfm.storage import ArtifactStore
 
 REQUIRED = ("database.db", "sparse/0/")
 
 
-def check_archive(path: Path, limit: int) -> None:
-    """Refuse an unsafe or incomplete workspace zip before a job is queued (the API calls this)."""
+def queue(session: Session, store: ArtifactStore, submit: Callable[[int], None], project: Project,
+          user_id: int, upload: BinaryIO, limit: int) -> Job:
+    """Keep a checked workspace zip in the project and queue its import; 409 unless the project is
+    empty and idle (checked before the upload is written)."""
+    if not queries.is_empty(session, project.id):
+        raise Conflict(f"project {project.id} already has images or versions; import needs an empty project")
+    if queries.active_job(session, project.id) is not None:
+        raise Conflict(f"project {project.id} already has a queued or running job")
+    kept = _keep(store, project.id, upload, limit)
+    try:
+        params = {"upload": str(kept.relative_to(store.root))}
+        return jobs.queue(session, submit, project, "import", user_id, params, None)
+    except BaseException:
+        kept.unlink(missing_ok=True)
+        raise
+
+
+def _keep(store: ArtifactStore, project_id: int, upload: BinaryIO, limit: int) -> Path:
+    """The upload, copied within the limit and checked in staging, then moved among the uploads."""
+    with store.staging(project_id, prefix="import-") as staging:
+        staged = staging / "workspace.zip"
+        uploads.copy_limited(upload, staged, uploads.Budget(limit), "file")
+        _check_archive(staged, limit)
+        kept = store.uploads_dir(project_id) / f"{staging.name}.zip"
+        staged.replace(kept)
+    return kept
+
+
+def _check_archive(path: Path, limit: int) -> None:
+    """Refuse an unsafe or incomplete workspace zip before a job is queued."""
     with uploads.open_zip(path) as archive:
         _members(archive, uploads.Budget(limit))
 

@@ -2,13 +2,27 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+from sqlalchemy.orm import Session
+
+from guided_sfm import jobs
 from guided_sfm.actions.context import JobContext, Produced
 from guided_sfm.core import workspace as ws
 from guided_sfm.core.errors import InvalidInput
+from guided_sfm.core.sfm import SfmOptions
 from guided_sfm.db import queries
+from guided_sfm.db.models import Job, Project
 from guided_sfm.db.session import session_scope
+
+
+def queue(session: Session, submit: Callable[[int], None], project: Project, user_id: int,
+          params: dict[str, Any]) -> Job:
+    """Queue a reconstruction of the project's images; options the worker could not use are refused now."""
+    SfmOptions(**params)  # an unknown camera model is an InvalidInput here, not a failed job later
+    return jobs.queue(session, submit, project, "reconstruct", user_id, params, project.head_version_id)
 
 
 def run(context: JobContext, work: Path) -> Produced:

@@ -14,9 +14,9 @@ from pathlib import Path
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm import jobs
-from guided_sfm.actions import images
+from guided_sfm.actions import images, projects
 from guided_sfm.db import queries
-from guided_sfm.db.models import Membership, Project, User
+from guided_sfm.db.models import Project, User
 from guided_sfm.db.session import session_scope
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -39,12 +39,9 @@ def ensure(sessions: sessionmaker[Session], settings: Settings, submit: Callable
         sample = write_sample(Path(tmp) / "sample", layout=DEFAULT_LAYOUT, seed=0)
         shutil.copy2(sample / "truth.json", settings.data_dir / TRUTH)
         user = _user(session, hash_password(password))
-        project = Project(name=f"Sample ({DEFAULT_LAYOUT})", created_by=user.id,
-                          description="Rendered sample scene with repeated objects; its ground truth "
-                          f"is {TRUTH} in the server's data directory.")
-        session.add(project)
-        session.flush()
-        session.add(Membership(project_id=project.id, user_id=user.id, role="owner"))
+        project = projects.add(session, user.id, f"Sample ({DEFAULT_LAYOUT})",
+                               "Rendered sample scene with repeated objects; its ground truth "
+                               f"is {TRUTH} in the server's data directory.")
         _upload(session, store, project, sorted((sample / "images").iterdir()), settings)
         jobs.queue(session, submit, project, "reconstruct", user.id, {}, None)
         credentials = {"username": user.username, "password": password, "project_id": project.id}

@@ -49,19 +49,16 @@ def scene(session: Session, store: ArtifactStore, version: Version) -> dict[str,
     workspace = _workspace(store, version)
     ids = IdMap.load(session, version.project_id, workspace)
     data = ws.load_scene(workspace).to_dict()
-    data["cameras"] = [{**c, "image_id": ids.sql(c["image_id"])} for c in data["cameras"]]
+    data["cameras"] = ids.rows(data["cameras"])
     return data
 
 
 def pairs(session: Session, store: ArtifactStore, version: Version, image_id: int | None) -> list[dict]:
     workspace = _workspace(store, version)
     ids = IdMap.load(session, version.project_id, workspace)
-    rows = []
-    for (a, b), inliers in sorted(ws.verified_pairs(workspace).items()):
-        id1, id2 = sorted((ids.sql(a) or 0, ids.sql(b) or 0))
-        if image_id is None or image_id in (id1, id2):
-            rows.append({"image_id1": id1, "image_id2": id2, "num_inliers": inliers})
-    return rows
+    return [{"image_id1": id1, "image_id2": id2, "num_inliers": inliers}
+            for (id1, id2), inliers in ids.pairs_with(sorted(ws.verified_pairs(workspace).items()))
+            if image_id is None or image_id in (id1, id2)]
 
 
 def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Version) -> dict[str, Any]:
@@ -69,22 +66,17 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
     workspace = _workspace(store, base)
     ids = IdMap.load(session, base.project_id, workspace)
     outcome = ws.preview(workspace, parse_edits(ids.edits_body(row.body), ws.image_ids(workspace)))
-
-    def rest(pair: tuple[int, int]) -> list[int]:
-        return sorted(ids.sql(i) or 0 for i in pair)
-
     return {
-        "pairs_to_delete": sorted(rest(p) for p in outcome.deleted),
+        "pairs_to_delete": ids.pairs(outcome.deleted),
         "components_before": outcome.components_before,
         "components_after": outcome.components_after,
         "removed_by_test": outcome.removed_by_test,
-        "kept_to_connect": sorted(rest(p) for p in outcome.kept),
-        "reasons": sorted(({"pair": rest(p), "tests": list(t)} for p, t in outcome.reasons.items()),
-                          key=lambda r: r["pair"]),
+        "kept_to_connect": ids.pairs(outcome.kept),
+        "reasons": [{"pair": list(pair), "tests": list(tests)}
+                    for pair, tests in sorted(ids.pairs_with(outcome.reasons.items()))],
     }
 
 
 def compare(session: Session, store: ArtifactStore, version: Version, other: Version) -> dict[str, Any]:
     ids = IdMap.load(session, other.project_id, _workspace(store, other))
-    rows = ws.compare(_workspace(store, version), _workspace(store, other))
-    return {"cameras": [{**r, "image_id": ids.sql(r["image_id"])} for r in rows]}
+    return {"cameras": ids.rows(ws.compare(_workspace(store, version), _workspace(store, other)))}

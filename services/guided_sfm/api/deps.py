@@ -1,8 +1,8 @@
-"""Dependencies as Annotated aliases: session, settings, store, current user, project by role."""
-
-from __future__ import annotations
+"""Dependencies as Annotated aliases: session, settings, store, current user, project by role, and
+the image, version, edit set or job of the path (404 naming it when the caller may not see it)."""
 
 from collections.abc import Callable, Iterator
+from functools import cache
 from typing import Annotated
 
 from fastapi import Depends, Path, Request
@@ -11,12 +11,12 @@ from sqlalchemy.orm import Session
 
 from guided_sfm.api import security
 from guided_sfm.db import queries
-from guided_sfm.db.models import Job, Project, User, Version
+from guided_sfm.db.models import MAX_ID, EditSetRow, Image, Job, Project, User, Version
+from guided_sfm.db.queries import InProject
 from guided_sfm.errors import Forbidden, NotFound, Unauthorized
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
-MAX_ID = 2**31 - 1  # SQL integer ids; larger values would overflow the database driver
 PathId = Annotated[int, Path(ge=1, le=MAX_ID)]
 bearer = OAuth2PasswordBearer(tokenUrl="/api/v1/auth/token", auto_error=False)
 
@@ -57,17 +57,19 @@ def current_user(session: SessionDep, settings: SettingsDep,
 CurrentUser = Annotated[User, Depends(current_user)]
 
 
-def require_role(session: Session, user: User, project_id: int, needed: str) -> Project:
-    """The project if the user's role is at least `needed`; no role at all looks like no project."""
-    project = session.get(Project, project_id)
-    role = queries.role_of(session, project_id, user.id) if project is not None else None
+def require_role(session: Session, user: User, project_id: int | None, needed: str,
+                 missing: str | None = None) -> Project:
+    """The project if the user's role is at least `needed`; no role at all looks like no such thing
+    (`missing` names what was asked for: the project itself unless a job of it)."""
+    role = queries.role_of(session, project_id, user.id) if project_id is not None else None
     if role is None:
-        raise NotFound(f"project {project_id} not found")
+        raise NotFound(f"{missing or f'project {project_id}'} not found")
     if not queries.role_at_least(role, needed):
         raise Forbidden(f"your role in project {project_id} is {role}; this needs {needed} or above")
-    return project
+    return session.get(Project, project_id)
 
 
+@cache  # one dependency per role: FastAPI then resolves it once per request, however many ask
 def project_with(needed: str) -> Callable[..., Project]:
     def dependency(pid: PathId, session: SessionDep, user: CurrentUser) -> Project:
         return require_role(session, user, pid, needed)
@@ -80,25 +82,32 @@ EditorProject = Annotated[Project, Depends(project_with("editor"))]
 OwnerProject = Annotated[Project, Depends(project_with("owner"))]
 
 
-def project_version(vid: PathId, project: ViewerProject, session: SessionDep) -> Version:
-    version = queries.version_in_project(session, project.id, vid)
-    if version is None:
-        raise NotFound(f"version {vid} not found in project {project.id}")
-    return version
+def found_in_project(model: type[InProject], param: str, needed: str) -> Callable[..., InProject]:
+    """The `model` row whose id is the path's `param`, in the path's project seen with role `needed`;
+    404 naming both when the project has no such row (checked after the role, so nothing leaks).
+    The annotations use this call's arguments, hence no `from __future__ import annotations` here."""
+
+    def dependency(row_id: Annotated[int, Path(alias=param, ge=1, le=MAX_ID)], session: SessionDep,
+                   project: Annotated[Project, Depends(project_with(needed))]) -> InProject:
+        return queries.in_project(session, model, project.id, row_id)
+
+    return dependency
 
 
-ProjectVersion = Annotated[Version, Depends(project_version)]
+ViewerImage = Annotated[Image, Depends(found_in_project(Image, "image_id", "viewer"))]
+ViewerVersion = Annotated[Version, Depends(found_in_project(Version, "vid", "viewer"))]
+EditorVersion = Annotated[Version, Depends(found_in_project(Version, "vid", "editor"))]
+ViewerEditSet = Annotated[EditSetRow, Depends(found_in_project(EditSetRow, "eid", "viewer"))]
+EditorEditSet = Annotated[EditSetRow, Depends(found_in_project(EditSetRow, "eid", "editor"))]
 
 
 def job_with(needed: str) -> Callable[..., Job]:
+    """The path's job if the user's role in its project is at least `needed`; jobs live outside
+    projects in the path, so a stranger's 404 names the job only."""
+
     def dependency(job_id: PathId, session: SessionDep, user: CurrentUser) -> Job:
         job = session.get(Job, job_id)
-        if job is None:
-            raise NotFound(f"job {job_id} not found")
-        try:
-            require_role(session, user, job.project_id, needed)
-        except NotFound as exc:
-            raise NotFound(f"job {job_id} not found") from exc
+        require_role(session, user, job.project_id if job else None, needed, f"job {job_id}")
         return job
 
     return dependency

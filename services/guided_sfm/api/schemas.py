@@ -7,6 +7,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt
 
+from guided_sfm.db.models import MAX_ID
+
 Role = Literal["viewer", "editor", "owner"]
 
 
@@ -17,7 +19,7 @@ def _storable(text: str) -> str:
 
 
 Text = Annotated[str, AfterValidator(_storable)]  # Postgres text cannot hold NUL
-DbId = Annotated[StrictInt, Field(ge=1, le=2**31 - 1)]  # an id the SQL integer columns can hold
+DbId = Annotated[StrictInt, Field(ge=1, le=MAX_ID)]  # an id the SQL integer columns can hold
 
 
 class Out(BaseModel):

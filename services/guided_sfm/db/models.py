@@ -29,6 +29,7 @@ JOB_STATES = ("queued", "running", "succeeded", "failed", "cancelled")
 ACTIVE_STATES = ("queued", "running")
 ACTIVE_SQL = "state IN ('queued', 'running')"
 VERSION_KINDS = ("reconstruct", "apply", "import", "restore")
+MAX_ID = 2**31 - 1  # ids are SQL INTEGER columns: a larger value would overflow the database driver
 
 
 def utcnow() -> datetime:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
@@ -16,6 +18,10 @@ from guided_sfm.db.models import (
     User,
     Version,
 )
+from guided_sfm.errors import NotFound
+
+NOUNS = {Image: "image", Version: "version", EditSetRow: "edit set"}  # in 404 messages
+InProject = TypeVar("InProject", Image, Version, EditSetRow)
 
 
 def user_by_name(session: Session, username: str) -> User | None:
@@ -50,6 +56,14 @@ def owner_count(session: Session, project_id: int) -> int:
     return session.scalar(query) or 0
 
 
+def in_project(session: Session, model: type[InProject], project_id: int, row_id: int) -> InProject:
+    """The project's row of `model` with this id; NotFound naming both when there is none."""
+    row = session.get(model, row_id)
+    if row is None or row.project_id != project_id:
+        raise NotFound(f"{NOUNS[model]} {row_id} not found in project {project_id}")
+    return row
+
+
 def images(session: Session, project_id: int) -> list[Image]:
     query = select(Image).where(Image.project_id == project_id).order_by(Image.seq, Image.id)
     return list(session.scalars(query))
@@ -60,23 +74,8 @@ def image_ids_by_name(session: Session, project_id: int) -> dict[str, int]:
     return {name: image_id for name, image_id in rows}
 
 
-def image_in_project(session: Session, project_id: int, image_id: int) -> Image | None:
-    image = session.get(Image, image_id)
-    return image if image is not None and image.project_id == project_id else None
-
-
-def version_in_project(session: Session, project_id: int, version_id: int) -> Version | None:
-    version = session.get(Version, version_id)
-    return version if version is not None and version.project_id == project_id else None
-
-
 def versions(session: Session, project_id: int) -> list[Version]:
     return list(session.scalars(select(Version).where(Version.project_id == project_id).order_by(Version.id)))
-
-
-def edit_set_in_project(session: Session, project_id: int, edit_id: int) -> EditSetRow | None:
-    row = session.get(EditSetRow, edit_id)
-    return row if row is not None and row.project_id == project_id else None
 
 
 def edit_sets(session: Session, project_id: int) -> list[EditSetRow]:

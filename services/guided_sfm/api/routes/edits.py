@@ -4,21 +4,20 @@ from typing import Annotated
 
 from fastapi import APIRouter, Header, Response
 
-from guided_sfm import jobs
 from guided_sfm.actions import edit_sets, version_data
 from guided_sfm.api.deps import (
     CurrentUser,
+    EditorEditSet,
     EditorProject,
-    PathId,
     SessionDep,
     StoreDep,
     SubmitDep,
+    ViewerEditSet,
     ViewerProject,
 )
 from guided_sfm.api.schemas import ApplyIn, EditSetIn, EditSetOut, JobOut, PreviewOut
 from guided_sfm.db import queries
-from guided_sfm.db.models import EditSetRow, Job, Project, Version
-from guided_sfm.errors import Conflict, NotFound
+from guided_sfm.db.models import EditSetRow, Job, Version
 
 router = APIRouter(prefix="/projects/{pid}/edits", tags=["edits"])
 
@@ -29,13 +28,6 @@ def out(row: EditSetRow, response: Response | None = None) -> EditSetOut:
     return EditSetOut(id=row.id, revision=row.revision, updated_at=row.updated_at,
                       updated_by=row.updated_by.username if row.updated_by else None,
                       **{k: v for k, v in row.body.items() if k in EditSetIn.model_fields})
-
-
-def _row(session: SessionDep, project: Project, eid: PathId) -> EditSetRow:
-    row = queries.edit_set_in_project(session, project.id, eid)
-    if row is None:
-        raise NotFound(f"edit set {eid} not found in project {project.id}")
-    return row
 
 
 @router.post("", status_code=201, response_model=EditSetOut)
@@ -50,36 +42,29 @@ def list_edit_sets(project: ViewerProject, session: SessionDep) -> list[EditSetO
 
 
 @router.get("/{eid}", response_model=EditSetOut)
-def read(eid: PathId, project: ViewerProject, session: SessionDep, response: Response) -> EditSetOut:
-    return out(_row(session, project, eid), response)
+def read(row: ViewerEditSet, response: Response) -> EditSetOut:
+    return out(row, response)
 
 
 @router.put("/{eid}", response_model=EditSetOut)
-def replace(eid: PathId, body: EditSetIn, project: EditorProject, session: SessionDep, user: CurrentUser,
-            response: Response, if_match: Annotated[str | None, Header()] = None) -> EditSetOut:
-    row = _row(session, project, eid)
+def replace(row: EditorEditSet, body: EditSetIn, project: EditorProject, session: SessionDep,
+            user: CurrentUser, response: Response,
+            if_match: Annotated[str | None, Header()] = None) -> EditSetOut:
     return out(edit_sets.replace(session, project, row, body.model_dump(), if_match, user.id), response)
 
 
 @router.delete("/{eid}", status_code=204)
-def delete(eid: PathId, project: EditorProject, session: SessionDep) -> Response:
-    edit_sets.delete(session, _row(session, project, eid))
+def delete(row: EditorEditSet, session: SessionDep) -> Response:
+    edit_sets.delete(session, row)
     return Response(status_code=204)
 
 
 @router.get("/{eid}/preview", response_model=PreviewOut)
-def preview(eid: PathId, project: ViewerProject, session: SessionDep, store: StoreDep) -> dict:
-    row = _row(session, project, eid)
+def preview(row: ViewerEditSet, session: SessionDep, store: StoreDep) -> dict:
     return version_data.preview(session, store, row, session.get(Version, row.base_version_id))
 
 
 @router.post("/{eid}/apply", status_code=202, response_model=JobOut)
-def apply(eid: PathId, project: EditorProject, session: SessionDep, user: CurrentUser, submit: SubmitDep,
-          body: ApplyIn | None = None) -> Job:
-    row = _row(session, project, eid)
-    if row.base_version_id != project.head_version_id:
-        raise Conflict(f"edit set {eid} is based on version {row.base_version_id}, but the head is "
-                       f"version {project.head_version_id}; rebase it first")
-    params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body,
-              "remap": (body or ApplyIn()).remap}
-    return jobs.queue(session, submit, project, "apply", user.id, params, row.base_version_id)
+def apply(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
+          submit: SubmitDep, body: ApplyIn | None = None) -> Job:
+    return edit_sets.apply(session, submit, project, row, user.id, (body or ApplyIn()).remap)

@@ -6,11 +6,10 @@ from fastapi import APIRouter, File, UploadFile
 from fastapi.responses import FileResponse
 
 from guided_sfm.actions import images as image_actions
-from guided_sfm.api.deps import EditorProject, PathId, SessionDep, SettingsDep, StoreDep, ViewerProject
+from guided_sfm.api.deps import EditorProject, SessionDep, SettingsDep, StoreDep, ViewerImage, ViewerProject
 from guided_sfm.api.schemas import ImageOut
 from guided_sfm.db import queries
-from guided_sfm.db.models import Image, Project
-from guided_sfm.errors import NotFound
+from guided_sfm.db.models import Image
 
 router = APIRouter(prefix="/projects/{pid}/images", tags=["images"])
 
@@ -28,20 +27,11 @@ def list_images(project: ViewerProject, session: SessionDep) -> list[Image]:
     return queries.images(session, project.id)
 
 
-def _image(session: SessionDep, project: Project, image_id: PathId) -> Image:
-    image = queries.image_in_project(session, project.id, image_id)
-    if image is None:
-        raise NotFound(f"image {image_id} not found in project {project.id}")
-    return image
-
-
 @router.get("/{image_id}/thumbnail", response_class=FileResponse)
-def thumbnail(image_id: PathId, project: ViewerProject, session: SessionDep, store: StoreDep) -> FileResponse:
-    path = image_actions.thumbnail(store, _image(session, project, image_id))
-    return FileResponse(path, media_type="image/jpeg")
+def thumbnail(image: ViewerImage, store: StoreDep) -> FileResponse:
+    return FileResponse(image_actions.thumbnail(store, image), media_type="image/jpeg")
 
 
 @router.get("/{image_id}/file", response_class=FileResponse)
-def original(image_id: PathId, project: ViewerProject, session: SessionDep, store: StoreDep) -> FileResponse:
-    image = _image(session, project, image_id)
-    return FileResponse(store.image_file(project.id, image.name), filename=image.name)
+def original(image: ViewerImage, store: StoreDep) -> FileResponse:
+    return FileResponse(store.image_file(image.project_id, image.name), filename=image.name)

@@ -2,11 +2,11 @@
 
 from fastapi import APIRouter, Response
 
+from guided_sfm.actions import projects
 from guided_sfm.api.deps import CurrentUser, OwnerProject, SessionDep, StoreDep, ViewerProject
 from guided_sfm.api.schemas import ProjectCreate, ProjectOut
 from guided_sfm.db import queries
-from guided_sfm.db.models import Membership, Project
-from guided_sfm.errors import Conflict
+from guided_sfm.db.models import Project
 
 router = APIRouter(prefix="/projects", tags=["projects"])
 
@@ -17,12 +17,7 @@ def out(project: Project, role: str | None) -> ProjectOut:
 
 @router.post("", status_code=201, response_model=ProjectOut)
 def create_project(body: ProjectCreate, session: SessionDep, user: CurrentUser) -> ProjectOut:
-    project = Project(name=body.name, description=body.description, created_by=user.id)
-    session.add(project)
-    session.flush()
-    session.add(Membership(project_id=project.id, user_id=user.id, role="owner"))
-    session.commit()
-    return out(project, "owner")
+    return out(projects.create(session, user.id, body.name, body.description), "owner")
 
 
 @router.get("", response_model=list[ProjectOut])
@@ -37,12 +32,5 @@ def get_project(project: ViewerProject, session: SessionDep, user: CurrentUser) 
 
 @router.delete("/{pid}", status_code=204)
 def delete_project(project: OwnerProject, session: SessionDep, store: StoreDep) -> Response:
-    if queries.active_job(session, project.id) is not None:
-        raise Conflict(f"project {project.id} has a queued or running job; cancel it first")
-    project_id = project.id
-    project.head_version_id = None  # the head points into the versions being deleted
-    session.flush()
-    session.delete(project)
-    session.commit()
-    store.delete_project(project_id)
+    projects.delete(session, store, project)
     return Response(status_code=204)

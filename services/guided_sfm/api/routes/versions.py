@@ -10,19 +10,17 @@ from guided_sfm.actions import export as export_action
 from guided_sfm.actions import restore as restore_action
 from guided_sfm.actions import version_data
 from guided_sfm.api.deps import (
-    MAX_ID,
     CurrentUser,
     EditorProject,
-    PathId,
-    ProjectVersion,
+    EditorVersion,
     SessionDep,
     StoreDep,
     ViewerProject,
+    ViewerVersion,
 )
 from guided_sfm.api.schemas import CompareOut, PairOut, VersionOut
 from guided_sfm.db import queries
-from guided_sfm.db.models import Version
-from guided_sfm.errors import NotFound
+from guided_sfm.db.models import MAX_ID, Version
 
 router = APIRouter(prefix="/projects/{pid}/versions", tags=["versions"])
 
@@ -40,29 +38,26 @@ def list_versions(project: ViewerProject, session: SessionDep) -> list[VersionOu
 
 
 @router.get("/{vid}/scene", response_model=dict[str, Any])
-def scene(version: ProjectVersion, session: SessionDep, store: StoreDep) -> Response:
+def scene(version: ViewerVersion, session: SessionDep, store: StoreDep) -> Response:
     """The top-down scene (cached per version; sent as pre-serialized JSON)."""
     return Response(version_data.scene_json(session, store, version), media_type="application/json")
 
 
 @router.get("/{vid}/pairs", response_model=list[PairOut])
-def pairs(version: ProjectVersion, session: SessionDep, store: StoreDep,
+def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep,
           image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> list[dict]:
     return version_data.pairs(session, store, version, image_id)
 
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)
-def restore(vid: PathId, project: EditorProject, session: SessionDep, store: StoreDep,
+def restore(version: EditorVersion, project: EditorProject, session: SessionDep, store: StoreDep,
             user: CurrentUser) -> VersionOut:
-    version = queries.version_in_project(session, project.id, vid)
-    if version is None:
-        raise NotFound(f"version {vid} not found in project {project.id}")
     restored = restore_action.restore(session, store, project, version, user.id)
     return out(restored, project.head_version_id)
 
 
 @router.get("/{vid}/export", response_class=FileResponse)
-def export(version: ProjectVersion, store: StoreDep,
+def export(version: ViewerVersion, store: StoreDep,
            format: Annotated[Literal["colmap", "ply"], Query()] = "colmap") -> FileResponse:
     path, name, media_type = export_action.export(store, version, format)
     return FileResponse(path, media_type=media_type, filename=name,
@@ -70,9 +65,7 @@ def export(version: ProjectVersion, store: StoreDep,
 
 
 @router.get("/{vid}/compare", response_model=CompareOut)
-def compare(version: ProjectVersion, session: SessionDep, store: StoreDep,
+def compare(version: ViewerVersion, session: SessionDep, store: StoreDep,
             to: Annotated[int, Query(ge=1, le=MAX_ID, description="the other version's id")]) -> dict:
-    other = queries.version_in_project(session, version.project_id, to)
-    if other is None:
-        raise NotFound(f"version {to} not found in project {version.project_id}")
+    other = queries.in_project(session, Version, version.project_id, to)
     return version_data.compare(session, store, version, other)
