@@ -13,8 +13,8 @@ import time
 import numpy as np
 import shapely
 
-from guided_sfm.core.frustum import frustum_polygons
-from guided_sfm.core.pruning import placed_poses, prune_pairs
+from guided_sfm.core.rule.driver import placed_poses, prune_pairs
+from guided_sfm.core.rule.frustum import frustum_polygons
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
 
 NEIGHBOURS = 30

@@ -16,14 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from guided_sfm.core import evidence as ev
 from guided_sfm.core import workspace
-from guided_sfm.core.match_placement import placement_test
-from guided_sfm.core.placement import place
-from guided_sfm.core.pruning import _tested_pairs, frustum_test, placed_poses, prune_pairs
-from guided_sfm.core.relative_pose import relative_pose_test
-from guided_sfm.core.relative_rotation import rotation_test
-from guided_sfm.core.tolerances import Tolerances
+from guided_sfm.core.rule import evidence as ev
+from guided_sfm.core.rule.driver import _tested_pairs, frustum_test, placed_poses, prune_pairs
+from guided_sfm.core.rule.match_placement import placement_test
+from guided_sfm.core.rule.motion import place
+from guided_sfm.core.rule.relative_pose import relative_pose_test
+from guided_sfm.core.rule.relative_rotation import rotation_test
+from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.types import CameraEdit, EditSet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' hand-made captures

@@ -8,12 +8,12 @@ import pytest
 
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.errors import InvalidInput
-from guided_sfm.core.evidence import flat_matches
-from guided_sfm.core.placement import ground_moves, place
-from guided_sfm.core.pruning import prune_pairs
-from guided_sfm.core.relative_pose import relative_pose_test
-from guided_sfm.core.relative_rotation import rotation_test
-from guided_sfm.core.tolerances import Tolerances, resolve
+from guided_sfm.core.rule.driver import prune_pairs
+from guided_sfm.core.rule.evidence import flat_matches
+from guided_sfm.core.rule.motion import ground_moves, place
+from guided_sfm.core.rule.relative_pose import relative_pose_test
+from guided_sfm.core.rule.relative_rotation import rotation_test
+from guided_sfm.core.rule.tolerances import Tolerances, resolve
 from guided_sfm.core.types import GroundFrame
 
 from .synthetic import Capture, ground_motion, in_view, look_at, scatter

@@ -3,7 +3,7 @@ import pytest
 import shapely
 
 from guided_sfm.core.errors import InvalidFrustum
-from guided_sfm.core.frustum import frustum_polygons, frustum_vertices
+from guided_sfm.core.rule.frustum import frustum_polygons, frustum_vertices
 
 
 def test_vertices_apex_axis_and_height():

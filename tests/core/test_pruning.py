@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
-from guided_sfm.core.pruning import links_to_keep, prune_pairs
+from guided_sfm.core.rule.driver import links_to_keep, prune_pairs
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
 
 FRAME = GroundFrame(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),

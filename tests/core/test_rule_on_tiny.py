@@ -3,7 +3,8 @@
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import evaluation, evidence, metrics, model_files, simulated_user, workspace
+from guided_sfm.core import evaluation, metrics, model_files, simulated_user, workspace
+from guided_sfm.core.rule import evidence
 from guided_sfm.core.truth import false_pairs, load_truth
 from guided_sfm.core.types import EditSet
 

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
-from guided_sfm.core.tolerances import resolve
+from guided_sfm.core.rule.tolerances import resolve
 from guided_sfm.core.types import CameraEdit, EditSet, pair_key
 
 RULES = ("default", "paper")

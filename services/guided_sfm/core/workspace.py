@@ -15,10 +15,12 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import colmap_db, colmap_model, evidence, match_graph, pruning, remap, sfm, topdown
+from guided_sfm.core import colmap_db, colmap_model, match_graph, remap, sfm, topdown
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
-from guided_sfm.core.evidence import Evidence
+from guided_sfm.core.rule import driver as pruning
+from guided_sfm.core.rule import evidence
+from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.sfm import CancelToken, SfmOptions
 from guided_sfm.core.types import (
     EditSet,

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from guided_sfm.core.evidence import Evidence, FlatMatches
-from guided_sfm.core.placement import Placement, segment_median
-from guided_sfm.core.tolerances import Tolerances
+from guided_sfm.core.rule.evidence import Evidence, FlatMatches
+from guided_sfm.core.rule.motion import Placement, segment_median
+from guided_sfm.core.rule.tolerances import Tolerances
 
 
 def _partner_from_own(placement: Placement, own_rows: np.ndarray, partner_rows: np.ndarray

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from guided_sfm.core.evidence import Evidence
 from guided_sfm.core.geometry import rotation_from_qvec
+from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.types import CameraEdit, GroundFrame, SceneCamera, TopDownScene
 
 # Weight of the frame's up against the cameras' own constraints (each normalised to trace 1).

@@ -11,14 +11,14 @@ import numpy as np
 import shapely
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
-from guided_sfm.core.evidence import Evidence, flat_matches
-from guided_sfm.core.frustum import frustum_polygons
 from guided_sfm.core.match_graph import components
-from guided_sfm.core.match_placement import placement_test
-from guided_sfm.core.placement import place
-from guided_sfm.core.relative_pose import relative_pose_test
-from guided_sfm.core.relative_rotation import rotation_test
-from guided_sfm.core.tolerances import Tolerances, resolve
+from guided_sfm.core.rule.evidence import Evidence, flat_matches
+from guided_sfm.core.rule.frustum import frustum_polygons
+from guided_sfm.core.rule.match_placement import placement_test
+from guided_sfm.core.rule.motion import place
+from guided_sfm.core.rule.relative_pose import relative_pose_test
+from guided_sfm.core.rule.relative_rotation import rotation_test
+from guided_sfm.core.rule.tolerances import Tolerances, resolve
 from guided_sfm.core.types import CameraEdit, EditSet, PairKey, PruneResult, TopDownScene, pair_key
 
 FRUSTUM = "frustum"

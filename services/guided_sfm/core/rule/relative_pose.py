@@ -16,10 +16,10 @@ import dataclasses
 
 import numpy as np
 
-from guided_sfm.core.evidence import Evidence, FlatMatches
-from guided_sfm.core.match_placement import carried_angles
-from guided_sfm.core.placement import Placement, segment_median
-from guided_sfm.core.tolerances import Tolerances
+from guided_sfm.core.rule.evidence import Evidence, FlatMatches
+from guided_sfm.core.rule.match_placement import carried_angles
+from guided_sfm.core.rule.motion import Placement, segment_median
+from guided_sfm.core.rule.tolerances import Tolerances
 
 # A pair agrees with the model when its median carried point lands within this multiple of the
 # epipolar tolerance: the model's inlier pairs sit near 0.1-1.5 deg, the others at tens of degrees.

@@ -23,9 +23,9 @@ from __future__ import annotations
 import numpy as np
 import pycolmap
 
-from guided_sfm.core.evidence import Evidence, FlatMatches
-from guided_sfm.core.placement import Placement, rotations_about, segment_median
-from guided_sfm.core.tolerances import Tolerances
+from guided_sfm.core.rule.evidence import Evidence, FlatMatches
+from guided_sfm.core.rule.motion import Placement, rotations_about, segment_median
+from guided_sfm.core.rule.tolerances import Tolerances
 
 # A pair whose homography transfers its rays this well is planar or a pure rotation.
 HOMOGRAPHY_FIT_DEG = 0.5
