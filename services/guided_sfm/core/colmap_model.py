@@ -82,6 +82,6 @@ def compare_models(before: pycolmap.Reconstruction, after: pycolmap.Reconstructi
         out.append({
             "image_id": image_id,
             "moved": float(np.linalg.norm(center - poses_before[name][1])),
-            "rotated_deg": geometry.rotation_angle_deg(poses_before[name][0], rotation),
+            "rotated_deg": float(geometry.rotation_angles_deg(poses_before[name][0], rotation)),
         })
     return out

@@ -33,7 +33,7 @@ def model_poses(reconstruction: pycolmap.Reconstruction) -> dict[int, ModelPose]
         rotation = cam_from_world.rotation.matrix()
         translation = np.asarray(cam_from_world.translation, dtype=float)
         poses[image_id] = ModelPose(rotation, translation,
-                                    geometry.camera_center(rotation, translation),
+                                    geometry.camera_centers(rotation, translation),
                                     geometry.qvec_from_pycolmap(cam_from_world.rotation.quat))
     return poses
 

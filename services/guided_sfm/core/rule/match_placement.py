@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from guided_sfm.core.geometry import segment_median, yaw_slack_deg
 from guided_sfm.core.rule.evidence import Evidence, FlatMatches
-from guided_sfm.core.rule.motion import Placement, segment_median
+from guided_sfm.core.rule.motion import Placement
 from guided_sfm.core.rule.tolerances import Tolerances
 
 
@@ -54,5 +55,5 @@ def placement_test(flat: FlatMatches, placement: Placement, evidence: Evidence,
     evaluated = np.bincount(pairs, minlength=count) >= tolerances.placement_min_points
     medians = segment_median(angles, pairs, count)
     moved = placement.moved[flat.rows].sum(axis=1) * (flat.rows >= 0).all(axis=1)
-    tolerance = tolerances.placement_deg + tolerances.yaw_uncertainty_deg * np.maximum(moved - 1, 0)
+    tolerance = yaw_slack_deg(tolerances.placement_deg, tolerances.yaw_uncertainty_deg, moved)
     return evaluated & (medians > tolerance), evaluated, medians

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from guided_sfm.core.geometry import rotation_from_qvec
+from guided_sfm.core.geometry import camera_centers, rotation_from_qvec, rotations_about
 from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.types import CameraEdit, GroundFrame, SceneCamera, TopDownScene
 
@@ -32,15 +32,7 @@ class Placement:
     @property
     def centers(self) -> np.ndarray:
         """(I, 3) placed camera centres (model coordinates)."""
-        return -np.einsum("nji,nj->ni", self.rotations, self.translations)
-
-
-def rotations_about(axis: np.ndarray, angles_rad: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) rotations by each angle (right-handed) about one unit axis (Rodrigues)."""
-    n = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    cross = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
-    cos, sin = np.cos(angles_rad)[:, None, None], np.sin(angles_rad)[:, None, None]
-    return cos * np.eye(3) + sin * cross + (1 - cos) * np.outer(n, n)
+        return camera_centers(self.rotations, self.translations)
 
 
 def gravity(scene: TopDownScene) -> np.ndarray:
@@ -93,7 +85,7 @@ def place(scene: TopDownScene, moved: Mapping[int, CameraEdit], evidence: Eviden
             yaws.append(camera.yaw_deg)
             after.append((edit.x, edit.y, edit.yaw_deg))
     if rows:
-        centers = -np.einsum("nji,nj->ni", evidence.rotations[rows], evidence.translations[rows])
+        centers = camera_centers(evidence.rotations[rows], evidence.translations[rows])
         move_rotations[rows], move_translations[rows] = ground_moves(
             scene.frame, up, centers, np.array(yaws), np.array(after))
     # cam_from_placed = cam_from_model . model_from_placed
@@ -111,16 +103,3 @@ def _ranges(cameras: Mapping[int, SceneCamera], evidence: Evidence) -> np.ndarra
     known = ranges[np.isfinite(ranges)]
     return np.where(np.isfinite(ranges), ranges, np.median(known) if len(known) else 1.0)
 
-
-def segment_median(values: np.ndarray, segments: np.ndarray, count: int) -> np.ndarray:
-    """Median of values in [0, 360) per segment id in [0, count); NaN for empty segments."""
-    # One sort of segment * 512 + value orders by segment, then value: cheaper than a lexsort.
-    sizes = np.bincount(segments, minlength=count)
-    ordered = np.sort(segments * 512.0 + values) - np.repeat(np.arange(count), sizes) * 512.0
-    starts = np.cumsum(sizes) - sizes
-    low = starts + np.maximum(sizes - 1, 0) // 2
-    high = np.minimum(starts + sizes // 2, max(len(ordered) - 1, 0))
-    medians = np.full(count, np.nan)
-    filled = sizes > 0
-    medians[filled] = (ordered[low[filled]] + ordered[high[filled]]) / 2
-    return medians

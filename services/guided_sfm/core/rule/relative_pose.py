@@ -16,9 +16,10 @@ import dataclasses
 
 import numpy as np
 
+from guided_sfm.core.geometry import camera_centers, segment_median, yaw_slack_deg
 from guided_sfm.core.rule.evidence import Evidence, FlatMatches
 from guided_sfm.core.rule.match_placement import carried_angles
-from guided_sfm.core.rule.motion import Placement, segment_median
+from guided_sfm.core.rule.motion import Placement
 from guided_sfm.core.rule.tolerances import Tolerances
 
 # A pair agrees with the model when its median carried point lands within this multiple of the
@@ -30,7 +31,7 @@ def partner_offsets(cam_from_world_rotations: np.ndarray, cam_from_world_transla
                     rows: np.ndarray) -> np.ndarray:
     """(P, 2, 3): per pair, each member's partner centre in that member's camera frame."""
     rotations, translations = cam_from_world_rotations, cam_from_world_translations
-    centers = -np.einsum("nji,nj->ni", rotations, translations)
+    centers = camera_centers(rotations, translations)
     offsets = []
     for own, other in ((0, 1), (1, 0)):
         offsets.append(np.einsum("pij,pj->pi", rotations[rows[:, own]], centers[rows[:, other]])
@@ -72,8 +73,8 @@ def relative_pose_test(flat: FlatMatches, placement: Placement, evidence: Eviden
     # yaw term below matters when both moved.
     shift = np.linalg.norm(placed_offsets - model_offsets, axis=2).min(axis=1)
     moved_rows = placement.moved[rows]
-    yaw_rad = np.radians(tolerances.rotation_deg + tolerances.yaw_uncertainty_deg
-                         * np.maximum(moved_rows.sum(axis=1) - 1, 0))
+    yaw_rad = np.radians(yaw_slack_deg(tolerances.rotation_deg, tolerances.yaw_uncertainty_deg,
+                                       moved_rows.sum(axis=1)))
     # the chord a yaw error sweeps at the pair's 3D distance (>= the horizontal one: lenient)
     distance = np.linalg.norm(model_offsets, axis=2).min(axis=1)
     allowed = (tolerances.position_share * (placement.ranges[rows] * moved_rows).sum(axis=1)

@@ -23,8 +23,9 @@ from __future__ import annotations
 import numpy as np
 import pycolmap
 
+from guided_sfm.core.geometry import rotation_angles_deg, rotations_about, segment_median, yaw_slack_deg
 from guided_sfm.core.rule.evidence import Evidence, FlatMatches
-from guided_sfm.core.rule.motion import Placement, rotations_about, segment_median
+from guided_sfm.core.rule.motion import Placement
 from guided_sfm.core.rule.tolerances import Tolerances
 
 # A pair whose homography transfers its rays this well is planar or a pure rotation.
@@ -163,8 +164,8 @@ def rotation_test(flat: FlatMatches, placement: Placement, evidence: Evidence,
     pair = np.searchsorted(chosen, flat.pair[keep])
     rays = [evidence.rays[flat.keypoints[keep, side]] for side in (0, 1)]
     rows = flat.rows[chosen]
-    span = tolerances.rotation_deg + tolerances.yaw_uncertainty_deg * np.maximum(
-        placement.moved[rows].sum(axis=1) - 1, 0)
+    span = yaw_slack_deg(tolerances.rotation_deg, tolerances.yaw_uncertainty_deg,
+                         placement.moved[rows].sum(axis=1))
     candidates = yaw_candidates(placement, rows, span)
     cones = baseline_cones(placement, rows, tolerances)
     cut, residual[chosen] = _epipolar_verdict(rays, pair, flat.counts[chosen], candidates, cones,
@@ -233,7 +234,7 @@ def robust_residual(rays, pair, candidates, cones) -> np.ndarray:
 
 def reoriented(model_rel: np.ndarray, candidates: np.ndarray, span_deg: np.ndarray) -> np.ndarray:
     """Pairs whose placed relative rotation, yaw free within the span, is not the model's."""
-    return _angle_deg(model_rel[:, None], candidates).min(axis=1) > span_deg
+    return rotation_angles_deg(model_rel[:, None], candidates).min(axis=1) > span_deg
 
 
 def fit_homography(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
@@ -290,9 +291,5 @@ def two_view_disagreement(a: np.ndarray, b: np.ndarray, candidates: np.ndarray,
     found = pycolmap.estimate_relative_pose(a, b, options)
     if found is None or found["num_inliers"] < MIN_INLIER_SHARE * len(a):
         return 0.0
-    return float(_angle_deg(found["cam2_from_cam1"].rotation.matrix()[None], candidates).min())
+    return float(rotation_angles_deg(found["cam2_from_cam1"].rotation.matrix()[None], candidates).min())
 
-
-def _angle_deg(rotation_a: np.ndarray, rotation_b: np.ndarray) -> np.ndarray:
-    cos = (np.einsum("...ij,...ij->...", rotation_a, rotation_b) - 1) / 2
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
