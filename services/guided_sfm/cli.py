@@ -13,7 +13,7 @@ import PIL.Image  # noqa: F401  (before pycolmap: Pillow after it corrupts the h
 from tqdm import tqdm
 
 from guided_sfm.core.errors import DomainError
-from guided_sfm.core.types import Progress
+from guided_sfm.core.types import DEFAULT_RULE, RULES, Progress
 
 
 class ProgressBar:
@@ -206,8 +206,8 @@ def build_parser() -> argparse.ArgumentParser:
           ("--json", {"action": "store_true"})])
     _add(sub, "demo", cmd_demo, "the paper's loop headless on a freshly rendered sample",
          [("--layout", {"default": None}), ("--seed", {"type": int, "default": 0}),
-          ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": "default",
-                                                               "choices": ["paper", "default"]}),
+          ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": DEFAULT_RULE,
+                                                               "choices": list(RULES)}),
           ("--out", {"default": None}), ("--cold", {"action": "store_true"}),
           ("--tolerance", {"action": "append", "metavar": "NAME=VALUE",
                            "help": "override one of the default rule's tolerances"}),

@@ -8,14 +8,15 @@ from pathlib import Path
 
 from guided_sfm import sample
 from guided_sfm.core import evaluation, metrics, simulated_user, workspace
+from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.sfm import SfmOptions
 from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.core.truth import load_truth
-from guided_sfm.core.types import EditSet, Progress, no_progress
+from guided_sfm.core.types import DEFAULT_RULE, Progress, no_progress
 
 
 def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1,
-             rule: str = "default", out_dir: Path | None = None,
+             rule: str = DEFAULT_RULE, out_dir: Path | None = None,
              options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
              cold: bool = False, tolerances: dict[str, float] | None = None,
              reuse: bool = False) -> dict:
@@ -45,9 +46,10 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         targets = [n for n in status.wrong + status.unregistered if n in truth.cameras]
         if not targets:
             break
-        edits = EditSet(simulated_user.place_cameras(workspace.load_scene(base), truth, targets,
-                                                     status.truth_from_model, seed + number),
-                        rule=rule, tolerances=dict(tolerances or {}))
+        placements = simulated_user.place_cameras(workspace.load_scene(base), truth, targets,
+                                                  status.truth_from_model, seed + number)
+        edits = parse_edits({"cameras": [vars(c) for c in placements], "rule": rule,
+                             "tolerances": dict(tolerances or {})}, workspace.image_ids(base))
         new = out_dir / f"round{number}"
         with clock.timed("prune"):
             outcome = workspace.prune(base, edits, new)

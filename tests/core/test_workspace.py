@@ -5,6 +5,7 @@ import json
 import pytest
 
 from guided_sfm.core import workspace
+from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.errors import InvalidInput, MissingWorkspace, UnknownImage
 from guided_sfm.core.sfm import SfmOptions
 from guided_sfm.core.types import CameraEdit, EditSet
@@ -77,7 +78,8 @@ def test_map_again_after_cutting_a_camera_leaves_it_out(tiny_workspace, tmp_path
 
 def test_unknown_image_and_missing_workspace_are_clear_errors(tiny_workspace, tmp_path):
     with pytest.raises(UnknownImage):
-        workspace.preview(tiny_workspace, EditSet([CameraEdit(9999, 0, 0, 0)]))
+        parse_edits({"cameras": [{"image_id": 9999, "x": 0, "y": 0, "yaw_deg": 0}]},
+                    workspace.image_ids(tiny_workspace))
     with pytest.raises(MissingWorkspace, match="not a workspace"):
         workspace.preview(tmp_path / "nowhere", EditSet())
 

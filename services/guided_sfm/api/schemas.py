@@ -7,6 +7,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt
 
+from guided_sfm.core.types import DEFAULT_RULE, RULES
+
 Role = Literal["viewer", "editor", "owner"]
 
 
@@ -123,13 +125,16 @@ class PairOut(Out):
     num_inliers: int
 
 
+# Edit sets: the models give the body's shape (types, for OpenAPI); what the values mean (fov and
+# range bounds, known images, the rule, tolerance names) is checked by core.edits.parse_edits when
+# actions.edit_sets saves the body, so a bad value answers 422 naming the field and nothing is stored.
 class CameraEditIn(In):
     image_id: DbId
     x: float
     y: float
     yaw_deg: float
-    fov_deg: float | None = Field(default=None, gt=0, lt=180)
-    range: float | None = Field(default=None, gt=0)
+    fov_deg: float | None = None
+    range: float | None = None
 
 
 class EditSetIn(In):
@@ -137,7 +142,7 @@ class EditSetIn(In):
     cameras: list[CameraEditIn] = Field(default_factory=list)
     delete_pairs: list[tuple[DbId, DbId]] = Field(default_factory=list)
     flags: list[DbId] = Field(default_factory=list)
-    rule: Literal["default", "paper"] = "default"
+    rule: str = Field(default=DEFAULT_RULE, json_schema_extra={"enum": list(RULES)})
     tolerances: dict[Text, float] = Field(default_factory=dict)
 
 

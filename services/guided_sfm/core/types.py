@@ -15,6 +15,11 @@ Progress = Callable[[str, float], None]
 """progress(stage, fraction in [0, 1]) reported by long steps."""
 
 
+DEFAULT_RULE, PAPER_RULE = "default", "paper"
+RULES = (DEFAULT_RULE, PAPER_RULE)
+"""An edit set's `rule`: the product's default rule, or the paper's triangle test alone."""
+
+
 def pair_key(a: int, b: int) -> PairKey:
     """The canonical (sorted) key of an image pair."""
     return (a, b) if a < b else (b, a)
@@ -111,12 +116,14 @@ class CameraEdit:
 
 @dataclass(frozen=True)
 class EditSet:
-    """What a user asks of one correction round."""
+    """What a user asks of one correction round. core.edits.parse_edits makes one from a body and
+    checks every value; the core trusts it (each camera once, known images, a rule of RULES,
+    tolerances by name)."""
 
     cameras: list[CameraEdit] = field(default_factory=list)
     delete_pairs: list[PairKey] = field(default_factory=list)
-    rule: str = "paper"
-    tolerances: dict[str, float] = field(default_factory=dict)
+    rule: str = DEFAULT_RULE
+    tolerances: dict[str, float] = field(default_factory=dict)  # overrides of Tolerances()
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ from guided_sfm.core.rule import evidence
 from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.sfm import CancelToken, SfmOptions
 from guided_sfm.core.types import (
+    DEFAULT_RULE,
     EditSet,
     PairKey,
     Progress,
@@ -193,7 +194,7 @@ def preview(workspace: Path, edits: EditSet) -> PruneOutcome:
 def rule_evidence(workspace: Path, edits: EditSet, pairs: dict[PairKey, int]) -> Evidence | None:
     """The default rule's evidence for the pairs of the moved cameras (None for the paper's rule)."""
     model_dir = Path(workspace) / SPARSE / "0"
-    if edits.rule != "default" or not edits.cameras or not model_dir.is_dir():
+    if edits.rule != DEFAULT_RULE or not edits.cameras or not model_dir.is_dir():
         return None
     touched = evidence.pairs_touching(pairs, {c.image_id for c in edits.cameras})
     return evidence.gather(require(workspace), model_dir, touched)

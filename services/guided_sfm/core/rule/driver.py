@@ -1,5 +1,5 @@
 """Algorithm 1 (design.md) and the default rule: pairs to delete for an edit set, with the tests
-that removed them (docs/pruning-rule.md)."""
+that removed them (docs/pruning-rule.md). The edit set comes checked (core.edits.parse_edits)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from itertools import chain
 import numpy as np
 import shapely
 
-from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
+from guided_sfm.core.errors import InvalidFrustum, InvalidInput
 from guided_sfm.core.match_graph import components
 from guided_sfm.core.rule.evidence import Evidence, flat_matches
 from guided_sfm.core.rule.frustum import frustum_polygons
@@ -18,8 +18,17 @@ from guided_sfm.core.rule.match_placement import placement_test
 from guided_sfm.core.rule.motion import place
 from guided_sfm.core.rule.relative_pose import relative_pose_test
 from guided_sfm.core.rule.relative_rotation import rotation_test
-from guided_sfm.core.rule.tolerances import Tolerances, resolve
-from guided_sfm.core.types import CameraEdit, EditSet, PairKey, PruneResult, TopDownScene, pair_key
+from guided_sfm.core.rule.tolerances import Tolerances
+from guided_sfm.core.types import (
+    DEFAULT_RULE,
+    PAPER_RULE,
+    CameraEdit,
+    EditSet,
+    PairKey,
+    PruneResult,
+    TopDownScene,
+    pair_key,
+)
 
 FRUSTUM = "frustum"
 PLACEMENT = "placement"
@@ -30,29 +39,11 @@ MANUAL = "manual"
 PlacedPose = tuple[float, float, float, float | None, float]  # x, y, yaw_deg, fov_deg, range
 
 
-def _check_edits(scene: TopDownScene, edits: EditSet) -> dict[int, CameraEdit]:
-    """Moved cameras by image id; raises on unknown or repeated images."""
-    known = {c.image_id for c in scene.cameras}
-    moved: dict[int, CameraEdit] = {}
-    for edit in edits.cameras:
-        if edit.image_id not in known:
-            raise UnknownImage(f"the edit moves image {edit.image_id}, which the scene lacks")
-        if edit.image_id in moved:
-            raise InvalidInput(f"the edit moves image {edit.image_id} more than once")
-        moved[edit.image_id] = edit
-    return moved
-
-
-def _manual_pairs(scene: TopDownScene, edits: EditSet,
-                  pairs: Mapping[PairKey, int]) -> list[PairKey]:
-    """The manual deletions as canonical keys; each must be a verified pair of known images."""
-    known = {c.image_id for c in scene.cameras}
+def _manual_pairs(edits: EditSet, pairs: Mapping[PairKey, int]) -> list[PairKey]:
+    """The manual deletions as canonical keys; each must be a verified pair of this version (the
+    parser knows the images, not the pairs)."""
     keys = []
     for a, b in edits.delete_pairs:
-        for image_id in (a, b):
-            if image_id not in known:
-                raise UnknownImage(f"manual deletion ({a}, {b}) names image {image_id}, "
-                                   "which the scene lacks")
         key = pair_key(a, b)
         if key not in pairs:
             raise InvalidInput(f"manual deletion ({a}, {b}) is not a verified pair")
@@ -97,10 +88,9 @@ def _triangles(ids: np.ndarray, poses: Mapping[int, PlacedPose]) -> np.ndarray:
     """One frustum polygon per id, built once."""
     values = np.array([poses[int(i)] for i in ids], dtype=object).reshape(-1, 5)
     missing_fov = [int(i) for i, fov in zip(ids, values[:, 3], strict=True) if fov is None]
-    if missing_fov:
+    if missing_fov:  # the scene's value, not the user's: an image without intrinsics
         raise InvalidFrustum(f"camera {missing_fov[0]} has no field of view; give fov_deg")
-    x, y, yaw, fov, range_ = (values[:, k].astype(float) for k in range(5))
-    return frustum_polygons(x, y, yaw, fov, range_, ids=[int(i) for i in ids])
+    return frustum_polygons(*(values[:, k].astype(float) for k in range(5)))
 
 
 def frustum_test(tested: np.ndarray, poses: Mapping[int, PlacedPose]) -> np.ndarray:
@@ -158,9 +148,9 @@ def _default_rule(rule_input: RuleInput) -> dict[str, np.ndarray]:
             ROTATION: rotated_out}
 
 
-RULES: dict[str, Callable[[RuleInput], dict[str, np.ndarray]]] = {
-    "paper": _paper_rule,
-    "default": _default_rule,
+RULE_TESTS: dict[str, Callable[[RuleInput], dict[str, np.ndarray]]] = {
+    PAPER_RULE: _paper_rule,
+    DEFAULT_RULE: _default_rule,
 }
 
 
@@ -170,12 +160,10 @@ def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int
 
     Without evidence (see core.evidence) the default rule can only run the frustum test.
     """
-    rule = RULES.get(edits.rule)
-    if rule is None:
-        raise InvalidInput(f"unknown rule {edits.rule!r}; expected one of {sorted(RULES)}")
-    tolerances = resolve(edits.tolerances)
-    moved = _check_edits(scene, edits)
-    manual = _manual_pairs(scene, edits, pairs)
+    rule = RULE_TESTS[edits.rule]
+    tolerances = Tolerances(**edits.tolerances)
+    moved = {edit.image_id: edit for edit in edits.cameras}
+    manual = _manual_pairs(edits, pairs)
     poses = placed_poses(scene, moved, tolerances.range_scale)
     tested = _tested_pairs(pairs, moved, poses)
     reasons: dict[PairKey, tuple[str, ...]] = {}
