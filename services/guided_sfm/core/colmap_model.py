@@ -1,7 +1,10 @@
-"""Sparse models: load them largest first, camera poses, and alignment between versions."""
+"""Sparse models: load them largest first, read their camera poses (the one place that asks
+pycolmap for them), and align one version's models to another's."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -14,21 +17,51 @@ from guided_sfm.core import geometry, metrics
 ALIGN_THRESHOLD_SHARE = 0.02
 
 
-def load_models(sparse_dir: Path) -> list[pycolmap.Reconstruction]:
-    """Every model under sparse_dir (0/, 1/, ...), largest (most registered images) first."""
+def load_models_with_dirs(sparse_dir: Path) -> list[tuple[Path, pycolmap.Reconstruction]]:
+    """(folder, model) of every model under sparse_dir (0/, 1/, ...), largest (most registered
+    images) first."""
     dirs = sorted((d for d in Path(sparse_dir).iterdir() if d.name.isdigit()), key=lambda d: int(d.name))
-    models = [pycolmap.Reconstruction(d) for d in dirs]
-    return sorted(models, key=lambda rec: -rec.num_reg_images())
+    return sorted(((d, pycolmap.Reconstruction(d)) for d in dirs), key=lambda m: -m[1].num_reg_images())
 
 
-def camera_poses(model: pycolmap.Reconstruction) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Image name -> (cam_from_world rotation 3x3, camera centre) of every registered image."""
+def load_models(sparse_dir: Path) -> list[pycolmap.Reconstruction]:
+    """Every model under sparse_dir, largest first."""
+    return [model for _, model in load_models_with_dirs(sparse_dir)]
+
+
+@dataclass(frozen=True)
+class ModelPose:
+    """A registered image's pose in its model (model coordinates)."""
+
+    name: str
+    rotation: np.ndarray  # (3, 3) cam_from_world
+    translation: np.ndarray  # (3,) cam_from_world
+    center: np.ndarray  # (3,)
+    qvec: np.ndarray  # (w, x, y, z), world-to-camera
+
+
+def model_poses(model: pycolmap.Reconstruction,
+                image_ids: Iterable[int] | None = None) -> dict[int, ModelPose]:
+    """Pose of every registered image of a model, or of those among image_ids, by image id."""
+    if image_ids is None:
+        images = list(model.images.values())
+    else:
+        images = [model.image(i) for i in image_ids if model.exists_image(i)]
     poses = {}
-    for image_id in model.reg_image_ids():
-        image = model.image(image_id)
-        cam_from_world = image.cam_from_world()
-        poses[image.name] = (cam_from_world.rotation.matrix(), np.asarray(image.projection_center()))
+    for image in images:
+        if image.has_pose:
+            cam_from_world = image.cam_from_world()
+            rotation = cam_from_world.rotation.matrix()
+            translation = np.asarray(cam_from_world.translation, dtype=float)
+            poses[image.image_id] = ModelPose(
+                image.name, rotation, translation, geometry.camera_centers(rotation, translation),
+                geometry.qvec_from_pycolmap(cam_from_world.rotation.quat))
     return poses
+
+
+def camera_poses(model: pycolmap.Reconstruction) -> dict[str, metrics.CameraPose]:
+    """Image name -> (cam_from_world rotation, camera centre) of every registered image."""
+    return {pose.name: (pose.rotation, pose.center) for pose in model_poses(model).values()}
 
 
 def _extent(centers: np.ndarray) -> float:

@@ -151,11 +151,13 @@ def load_models(workspace: Path) -> list[pycolmap.Reconstruction]:
 def write_scene(workspace: Path) -> TopDownScene:
     """Build the top-down scene from the models and database, and store it as scene.json."""
     database = require(workspace)
-    models = load_models(workspace)
-    if not models:
+    sparse = Path(workspace) / SPARSE
+    loaded = colmap_model.load_models_with_dirs(sparse) if sparse.is_dir() else []
+    if not loaded:
         raise EmptyModel(f"{workspace} has no sparse model to build a scene from")
     names = colmap_db.image_names(database)
-    scene = topdown.build_scene(models, sorted(names.items()), colmap_db.fov_by_image(database))
+    scene = topdown.build_scene([model for _, model in loaded], loaded[0][0], sorted(names.items()),
+                                colmap_db.fov_by_image(database))
     (Path(workspace) / SCENE).write_text(json.dumps(scene.to_dict()))
     return scene
 
