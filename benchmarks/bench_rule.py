@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from guided_sfm.core import workspace
 from guided_sfm.core.rule import evidence as ev
 from guided_sfm.core.rule.driver import _tested_pairs, frustum_test, placed_poses, prune_pairs
 from guided_sfm.core.rule.match_placement import placement_test
@@ -25,6 +24,7 @@ from guided_sfm.core.rule.relative_pose import relative_pose_test
 from guided_sfm.core.rule.relative_rotation import rotation_test
 from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.types import CameraEdit, EditSet
+from guided_sfm.core.workspace import Workspace
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' hand-made captures
 from tests.core.synthetic import Capture, in_view, look  # noqa: E402
@@ -111,17 +111,15 @@ def bench_synthetic(count: int, neighbours: int, runs: int) -> None:
     print(f"  deleted {len(result.deleted)} pairs; by test {result.removed_by_test}")
 
 
-def bench_gather(ws: Path, runs: int) -> None:
-    pairs = workspace.verified_pairs(ws)
-    scene = workspace.load_scene(ws)
-    everyone = EditSet([], rule="default")
-    ids = [c.image_id for c in scene.cameras if c.registered]
+def bench_gather(root: Path, runs: int) -> None:
+    workspace = Workspace(root)
+    pairs = workspace.verified_pairs()
+    ids = [c.image_id for c in workspace.scene().cameras if c.registered]
     (seconds, cpu), evidence = median_time(
-        lambda: ev.gather(workspace.require(ws), ws / "sparse" / "0",
-                          ev.pairs_touching(pairs, ids)), runs)
-    print(f"gather evidence from {ws}: {len(evidence.rows)} images, {len(evidence.matches)} pairs, "
+        lambda: ev.gather(workspace.require(), workspace.model_dir(), ev.pairs_touching(pairs, ids)),
+        runs)
+    print(f"gather evidence from {root}: {len(evidence.rows)} images, {len(evidence.matches)} pairs, "
           f"{len(evidence.rays)} keypoints: {seconds:.3f} s wall, {cpu:.3f} s cpu")
-    del everyone
 
 
 def main() -> None:

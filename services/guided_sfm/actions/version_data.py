@@ -5,20 +5,19 @@ from __future__ import annotations
 import json
 import threading
 from collections import OrderedDict
-from pathlib import Path
 from typing import Any
 
 from sqlalchemy.orm import Session
 
 from guided_sfm.actions.ids import IdMap
-from guided_sfm.core import workspace as ws
 from guided_sfm.core.edits import parse_edits
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import ArtifactStore
 
 
-def _workspace(store: ArtifactStore, version: Version) -> Path:
-    return store.version_dir(version.path)
+def _workspace(store: ArtifactStore, version: Version) -> Workspace:
+    return Workspace(store.version_dir(version.path))
 
 
 class _SceneCache:
@@ -48,7 +47,7 @@ scene_json = _SceneCache().get
 def scene(session: Session, store: ArtifactStore, version: Version) -> dict[str, Any]:
     workspace = _workspace(store, version)
     ids = IdMap.load(session, version.project_id, workspace)
-    data = ws.load_scene(workspace).to_dict()
+    data = workspace.scene().to_dict()
     data["cameras"] = [{**c, "image_id": ids.sql(c["image_id"])} for c in data["cameras"]]
     return data
 
@@ -57,7 +56,7 @@ def pairs(session: Session, store: ArtifactStore, version: Version, image_id: in
     workspace = _workspace(store, version)
     ids = IdMap.load(session, version.project_id, workspace)
     rows = []
-    for (a, b), inliers in sorted(ws.verified_pairs(workspace).items()):
+    for (a, b), inliers in sorted(workspace.verified_pairs().items()):
         id1, id2 = sorted((ids.sql(a) or 0, ids.sql(b) or 0))
         if image_id is None or image_id in (id1, id2):
             rows.append({"image_id1": id1, "image_id2": id2, "num_inliers": inliers})
@@ -68,7 +67,7 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
     """What applying the edit set would delete; nothing is written."""
     workspace = _workspace(store, base)
     ids = IdMap.load(session, base.project_id, workspace)
-    outcome = ws.preview(workspace, parse_edits(ids.edits_body(row.body), ws.image_ids(workspace)))
+    outcome = workspace.preview(parse_edits(ids.edits_body(row.body), workspace.image_ids()))
 
     def rest(pair: tuple[int, int]) -> list[int]:
         return sorted(ids.sql(i) or 0 for i in pair)
@@ -86,5 +85,5 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
 
 def compare(session: Session, store: ArtifactStore, version: Version, other: Version) -> dict[str, Any]:
     ids = IdMap.load(session, other.project_id, _workspace(store, other))
-    rows = ws.compare(_workspace(store, version), _workspace(store, other))
+    rows = _workspace(store, version).compare(_workspace(store, other))
     return {"cameras": [{**r, "image_id": ids.sql(r["image_id"])} for r in rows]}

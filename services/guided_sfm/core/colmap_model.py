@@ -13,7 +13,7 @@ import pycolmap
 from guided_sfm.core import geometry, metrics
 
 # Alignment between versions is robust to the cameras a round moved: inliers must agree
-# within this share of the scene extent.
+# within this share of the diagonal of the cameras' bounding box.
 ALIGN_THRESHOLD_SHARE = 0.02
 
 
@@ -64,7 +64,9 @@ def camera_poses(model: pycolmap.Reconstruction) -> dict[str, metrics.CameraPose
     return {pose.name: (pose.rotation, pose.center) for pose in model_poses(model).values()}
 
 
-def _extent(centers: np.ndarray) -> float:
+def _diagonal(centers: np.ndarray) -> float:
+    """The diagonal of the centres' bounding box (1 where there is none): the scale the
+    alignment threshold is a share of."""
     if len(centers) < 2:
         return 1.0
     return float(np.linalg.norm(centers.max(axis=0) - centers.min(axis=0))) or 1.0
@@ -79,7 +81,7 @@ def similarity_between(source: pycolmap.Reconstruction, target: pycolmap.Reconst
         return None
     src = np.array([src_poses[n][1] for n in common])
     dst = np.array([dst_poses[n][1] for n in common])
-    return metrics.align_similarity(src, dst, threshold=ALIGN_THRESHOLD_SHARE * _extent(dst))
+    return metrics.align_similarity(src, dst, threshold=ALIGN_THRESHOLD_SHARE * _diagonal(dst))
 
 
 def to_sim3d(sim: metrics.Similarity) -> pycolmap.Sim3d:

@@ -110,3 +110,12 @@ def build_scene(reconstructions: list[pycolmap.Reconstruction], largest_dir: Pat
     models = [{"index": i, "num_images": int(r.num_reg_images())}
               for i, r in enumerate(reconstructions)]
     return TopDownScene(frame, cameras, points_xy, models)
+
+
+def scene_extent(scene: TopDownScene) -> float:
+    """The scene extent of design.md: the largest distance between two registered camera
+    centres (model units); 1 with fewer than two."""
+    centers = np.array([c.center for c in scene.cameras if c.center is not None])
+    if len(centers) < 2:
+        return 1.0
+    return float(np.max(np.linalg.norm(centers[:, None] - centers[None], axis=2)))
