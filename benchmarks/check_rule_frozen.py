@@ -51,7 +51,7 @@ def _record(result, names: dict[int, str], before: int | None = None,
         return sorted((names[pair[0]], names[pair[1]]))
 
     record = {"deleted": sorted([*named(p), list(result.reasons[p])] for p in result.deleted),
-              "kept_to_connect": sorted(named(p) for p in result.kept)}
+              "kept_to_connect": sorted(named(p) for p in result.kept_to_connect)}
     if before is not None:
         record |= {"components_before": before, "components_after": after}
     return record

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput
-from guided_sfm.core.rule.driver import links_to_keep, prune_pairs
+from guided_sfm.core.rule.driver import kept_to_connect, prune_pairs
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
 
 FRAME = GroundFrame(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
@@ -114,9 +114,9 @@ def test_the_default_rule_keeps_placement_only_cuts_that_would_split_the_match_g
                (2, 4): ("placement",), (3, 4): ("placement", "relative_pose")}
     # 3 and 4 would lose every link: the placement-only links that join them back stay, the
     # pairs another test also cut go.
-    assert links_to_keep(pairs, reasons, manual=[]) == [(2, 3), (2, 4)]
+    assert kept_to_connect(pairs, reasons, manual=[]) == [(2, 3), (2, 4)]
     # a manual deletion is the user's own: never kept, and a split it makes is not undone
-    assert links_to_keep(pairs, {(2, 3): ("placement",)}, manual=[(2, 4), (1, 4)]) == [(2, 3)]
-    assert links_to_keep(pairs, {}, manual=[(2, 3), (2, 4), (1, 4)]) == []
+    assert kept_to_connect(pairs, {(2, 3): ("placement",)}, manual=[(2, 4), (1, 4)]) == [(2, 3)]
+    assert kept_to_connect(pairs, {}, manual=[(2, 3), (2, 4), (1, 4)]) == []
     # no split, nothing kept
-    assert links_to_keep(pairs, {(2, 3): ("placement",), (2, 4): ("placement",)}, []) == []
+    assert kept_to_connect(pairs, {(2, 3): ("placement",), (2, 4): ("placement",)}, []) == []

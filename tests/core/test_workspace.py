@@ -100,7 +100,7 @@ def test_prune_records_the_links_it_kept_to_connect(tiny_workspace_ro, tmp_path)
                     rule="default", tolerances={"placement_deg": 0.001})
     outcome = Workspace(tiny_workspace_ro).prune(edits, Workspace(tmp_path / "next"))
     touching = {p for p in Workspace(tiny_workspace_ro).verified_pairs() if camera.image_id in p}
-    assert touching and set(outcome.kept) == touching and not outcome.deleted
+    assert touching and set(outcome.kept_to_connect) == touching and not outcome.deleted
     assert outcome.components_after == outcome.components_before
     record = json.loads(Workspace(tmp_path / "next").pruning_file.read_text())
     assert len(record["kept_to_connect"]) == len(touching)

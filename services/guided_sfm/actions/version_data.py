@@ -77,7 +77,7 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
         "components_before": outcome.components_before,
         "components_after": outcome.components_after,
         "removed_by_test": outcome.removed_by_test,
-        "kept_to_connect": sorted(rest(p) for p in outcome.kept),
+        "kept_to_connect": sorted(rest(p) for p in outcome.kept_to_connect),
         "reasons": sorted(({"pair": rest(p), "tests": list(t)} for p, t in outcome.reasons.items()),
                           key=lambda r: r["pair"]),
     }

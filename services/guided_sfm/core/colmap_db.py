@@ -96,28 +96,28 @@ def keypoints(path: Path, image_id: int) -> np.ndarray:
     return _blob(row[2], row[0], row[1], np.float32)[:, :2].astype(float)
 
 
-def copy_without_pairs(source: Path, target: Path, removed: Iterable[PairKey]) -> int:
-    """Write a new database at target: source minus the removed pairs (and descriptors).
+def copy_without_pairs(source: Path, target: Path, deleted: Iterable[PairKey]) -> int:
+    """Write a new database at target: source minus the deleted pairs (and descriptors).
 
-    The source is opened read-only and left untouched. Returns how many pairs were removed.
+    The source is opened read-only and left untouched. Returns how many pairs it deleted.
     """
     if not Path(source).is_file():
         raise MissingWorkspace(f"no COLMAP database at {source}")
     target = Path(target)
     target.unlink(missing_ok=True)
-    pair_ids = [(pycolmap.image_pair_to_pair_id(*pair),) for pair in removed]
+    pair_ids = [(pycolmap.image_pair_to_pair_id(*pair),) for pair in deleted]
     with closing(sqlite3.connect(f"file:{target}", uri=True)) as conn:
         conn.execute("ATTACH DATABASE ? AS src", (f"file:{source}?mode=ro",))
         _copy_tables(conn)
-        conn.execute("CREATE TEMP TABLE removed (pair_id INTEGER PRIMARY KEY)")
-        conn.executemany("INSERT OR IGNORE INTO removed VALUES (?)", pair_ids)
-        deleted = conn.execute(
-            "DELETE FROM main.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM removed)"
+        conn.execute("CREATE TEMP TABLE deleted (pair_id INTEGER PRIMARY KEY)")
+        conn.executemany("INSERT OR IGNORE INTO deleted VALUES (?)", pair_ids)
+        count = conn.execute(
+            "DELETE FROM main.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM deleted)"
         ).rowcount
-        conn.execute("DELETE FROM main.matches WHERE pair_id IN (SELECT pair_id FROM removed)")
+        conn.execute("DELETE FROM main.matches WHERE pair_id IN (SELECT pair_id FROM deleted)")
         conn.commit()
         conn.execute("DETACH DATABASE src")
-    return deleted
+    return count
 
 
 def _copy_tables(conn: sqlite3.Connection) -> None:

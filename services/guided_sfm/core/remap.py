@@ -1,5 +1,5 @@
-"""Warm re-mapping: continue from the previous model without the edited cameras, guarded by a
-cold re-map when the warm result looks worse than where it started."""
+"""Warm re-mapping: continue from the previous model without the touched images (those the round
+edited), guarded by a cold re-map when the warm result looks worse than where it started."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from guided_sfm.core import sfm
 from guided_sfm.core.errors import EmptyModel
 from guided_sfm.core.sfm import RunContext
 
-# Keeping the untouched cameras fixed is what makes a warm start fast; when many cameras move,
+# Keeping the untouched cameras fixed is what makes a warm start fast; when many are touched,
 # the rest were likely bent by the same false matches, so they are refined too.
 FIX_EXISTING_SHARE = 0.1
 # The warm result is rejected when its mean reprojection error grows beyond both of these.

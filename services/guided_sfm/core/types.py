@@ -104,7 +104,8 @@ class TopDownScene:
 
 @dataclass(frozen=True)
 class CameraEdit:
-    """A user's placement of one camera in the scene's 2D frame; fov/range None = keep the scene's."""
+    """A placement: the user's 2D pose for one camera in the scene's frame (frame units, yaw in
+    degrees); fov/range None = keep the scene's."""
 
     image_id: int
     x: float
@@ -128,12 +129,13 @@ class EditSet:
 
 @dataclass(frozen=True)
 class PruneResult:
-    """Pairs a rule deletes, with the tests that removed each one."""
+    """Pairs a rule deletes, with the reasons for each: the tests that removed it, and "manual"
+    for the user's own deletions."""
 
     deleted: list[PairKey]
     reasons: dict[PairKey, tuple[str, ...]]
-    # pairs the match-placement test alone cut, kept because cutting them splits the match graph
-    kept: list[PairKey]
+    # pairs the match-placement test alone removed, kept because deleting them splits the match graph
+    kept_to_connect: list[PairKey]
 
     @property
     def removed_by_test(self) -> dict[str, int]:

@@ -197,7 +197,7 @@ class Workspace:
         return PruneOutcome(
             deleted=result.deleted,
             reasons=result.reasons,
-            kept=result.kept,
+            kept_to_connect=result.kept_to_connect,
             components_before=match_graph.count_components(pairs),
             components_after=match_graph.count_components(pairs, result.deleted),
         )
@@ -251,5 +251,5 @@ def pruning_record(outcome: PruneOutcome, names: dict[int, str]) -> dict:
         "components_before": outcome.components_before,
         "components_after": outcome.components_after,
         "removed_by_test": outcome.removed_by_test,
-        "kept_to_connect": sorted(sorted((names[a], names[b])) for a, b in outcome.kept),
+        "kept_to_connect": sorted(sorted((names[a], names[b])) for a, b in outcome.kept_to_connect),
     }

@@ -1,11 +1,13 @@
-"""What the default rule tests a placement against, read once per preview (models and database
-read-only): per model image its pose, keypoint rays and 3D points; per pair its inlier matches."""
+"""What the default rule tests the placements against, read once per preview (models and database
+read-only): per model image its pose, keypoint rays and 3D points; per pair its inlier matches.
+And the shape of a test's answer (Verdicts)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pycolmap
@@ -42,6 +44,15 @@ class FlatMatches:
     rows: np.ndarray  # (P, 2) evidence row of each pair member, -1 when not in the model
     counts: np.ndarray  # (P,) matches kept per pair (0 when a member is not in the model)
     inliers: np.ndarray  # (P,) the pair's verified inliers, before thinning
+
+
+class Verdicts(NamedTuple):
+    """A test's answer per tested pair: removed, judged (False: no verdict here, another test
+    decides), and the measure it judged by (NaN where it gave no verdict)."""
+
+    removed: np.ndarray
+    judged: np.ndarray
+    measure: np.ndarray
 
 
 def _thinned(block: np.ndarray) -> np.ndarray:

@@ -1,6 +1,7 @@
-"""A user's placement as 3D motions: each moved camera's 2D move on the ground plane becomes a turn
-about gravity (estimated from the model's cameras) and a shift that keeps its height and tilt; and
-the placed cam_from_world of every model image."""
+"""The user's placements as 3D motions: a moved camera's placement (a 2D pose on the ground plane)
+implies a rigid motion of the model world, a turn about gravity (estimated from the model's cameras)
+and a shift that keeps its height and tilt; with it, the placed cam_from_world of every model image
+(its model pose moved by its motion, or left where it is)."""
 
 from __future__ import annotations
 
@@ -18,21 +19,26 @@ GRAVITY_PRIOR = 0.05
 
 
 @dataclass(frozen=True)
-class Placement:
-    """Per evidence row: the rigid move placed_from_model and the placed cam_from_world."""
+class Motions:
+    """Per evidence row: the motion placed_from_model its placement implies (identity for a camera
+    without one) and the placed cam_from_world."""
 
-    move_rotations: np.ndarray  # (I, 3, 3), identity for cameras left where they were
-    move_translations: np.ndarray  # (I, 3)
-    rotations: np.ndarray  # (I, 3, 3) placed cam_from_world
-    translations: np.ndarray  # (I, 3)
-    moved: np.ndarray  # (I,) bool
-    up: np.ndarray  # (3,) the gravity the moves turned about (model coordinates)
+    motion_rotations: np.ndarray  # (I, 3, 3) placed_from_model
+    motion_translations: np.ndarray  # (I, 3)
+    cam_rotations: np.ndarray  # (I, 3, 3) placed cam_from_world
+    cam_translations: np.ndarray  # (I, 3)
+    moved: np.ndarray  # (I,) bool: the camera has a placement
+    up: np.ndarray  # (3,) the gravity the motions turn about (model coordinates)
     ranges: np.ndarray  # (I,) each camera's frustum range (median point depth, model units)
 
     @property
     def centers(self) -> np.ndarray:
         """(I, 3) placed camera centres (model coordinates)."""
-        return camera_centers(self.rotations, self.translations)
+        return camera_centers(self.cam_rotations, self.cam_translations)
+
+    def moved_members(self, rows: np.ndarray) -> np.ndarray:
+        """(P,) how many members of each pair of evidence rows (P, 2) are moved."""
+        return self.moved[rows].sum(axis=1)
 
 
 def gravity(scene: TopDownScene) -> np.ndarray:
@@ -54,10 +60,10 @@ def gravity(scene: TopDownScene) -> np.ndarray:
     return up / np.linalg.norm(up)
 
 
-def ground_moves(frame: GroundFrame, up: np.ndarray, model_centers: np.ndarray,
-                 model_yaw_deg: np.ndarray, placed_xy_yaw: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """placed_from_model (rotations (N, 3, 3), translations (N, 3)) of 2D moves in the frame.
+def ground_motions(frame: GroundFrame, up: np.ndarray, model_centers: np.ndarray,
+                   model_yaw_deg: np.ndarray, placed_xy_yaw: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """placed_from_model (rotations (N, 3, 3), translations (N, 3)) of placements in the frame.
 
     Each camera turns about `up` through its own centre and shifts by the frame's 2D offset, its
     height along `up` kept.
@@ -72,29 +78,30 @@ def ground_moves(frame: GroundFrame, up: np.ndarray, model_centers: np.ndarray,
     return rotations, model_centers + shift - turned
 
 
-def place(scene: TopDownScene, moved: Mapping[int, CameraEdit], evidence: Evidence) -> Placement:
-    """The placement of every evidence row: moved cameras carried by their 2D move, others kept."""
+def motions_of(scene: TopDownScene, placements: Mapping[int, CameraEdit],
+               evidence: Evidence) -> Motions:
+    """The motions of every evidence row: a moved camera carried to its placement, others kept."""
     count, up = len(evidence.rows), gravity(scene)
-    move_rotations, move_translations = np.tile(np.eye(3), (count, 1, 1)), np.zeros((count, 3))
+    motion_rotations, motion_translations = np.tile(np.eye(3), (count, 1, 1)), np.zeros((count, 3))
     cameras = {c.image_id: c for c in scene.cameras}
     rows, yaws, after = [], [], []
     for image_id, row in evidence.rows.items():
-        edit, camera = moved.get(image_id), cameras.get(image_id)
-        if edit is not None and camera is not None and camera.yaw_deg is not None:
+        placement, camera = placements.get(image_id), cameras.get(image_id)
+        if placement is not None and camera is not None and camera.yaw_deg is not None:
             rows.append(row)
             yaws.append(camera.yaw_deg)
-            after.append((edit.x, edit.y, edit.yaw_deg))
+            after.append((placement.x, placement.y, placement.yaw_deg))
     if rows:
         centers = camera_centers(evidence.rotations[rows], evidence.translations[rows])
-        move_rotations[rows], move_translations[rows] = ground_moves(
+        motion_rotations[rows], motion_translations[rows] = ground_motions(
             scene.frame, up, centers, np.array(yaws), np.array(after))
     # cam_from_placed = cam_from_model . model_from_placed
-    rotations = evidence.rotations @ move_rotations.transpose(0, 2, 1)
-    translations = evidence.translations - np.einsum("nij,nj->ni", rotations, move_translations)
-    flags = np.zeros(count, dtype=bool)
-    flags[rows] = True
-    return Placement(move_rotations, move_translations, rotations, translations, flags, up,
-                     _ranges(cameras, evidence))
+    rotations = evidence.rotations @ motion_rotations.transpose(0, 2, 1)
+    translations = evidence.translations - np.einsum("nij,nj->ni", rotations, motion_translations)
+    moved = np.zeros(count, dtype=bool)
+    moved[rows] = True
+    return Motions(motion_rotations, motion_translations, rotations, translations, moved, up,
+                   _ranges(cameras, evidence))
 
 
 def _ranges(cameras: Mapping[int, SceneCamera], evidence: Evidence) -> np.ndarray:
