@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 from datetime import datetime
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_type_hints
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt, create_model
 
-from guided_sfm.core.types import DEFAULT_RULE, RULES
+from guided_sfm.core.types import DEFAULT_RULE, RULES, CameraEdit
 
 Role = Literal["viewer", "editor", "owner"]
 
@@ -125,16 +126,19 @@ class PairOut(Out):
     num_inliers: int
 
 
+def _shape_of(value_type: type, name: str, **overrides: Any) -> type[In]:
+    """A request model with the fields of a core value type (a dataclass), some types overridden."""
+    hints = get_type_hints(value_type)
+    fields = {f.name: (overrides.get(f.name, hints[f.name]),
+                       ... if f.default is dataclasses.MISSING else f.default)
+              for f in dataclasses.fields(value_type)}
+    return create_model(name, __base__=In, **fields)
+
+
 # Edit sets: the models give the body's shape (types, for OpenAPI); what the values mean (fov and
 # range bounds, known images, the rule, tolerance names) is checked by core.edits.parse_edits when
 # actions.edit_sets saves the body, so a bad value answers 422 naming the field and nothing is stored.
-class CameraEditIn(In):
-    image_id: DbId
-    x: float
-    y: float
-    yaw_deg: float
-    fov_deg: float | None = None
-    range: float | None = None
+CameraEditIn = _shape_of(CameraEdit, "CameraEditIn", image_id=DbId)
 
 
 class EditSetIn(In):

@@ -163,39 +163,51 @@ def share_cameras(path: Path) -> int:
     multi-sensor rigs are left alone.
     """
     with closing(sqlite3.connect(path)) as conn:
-        rows = conn.execute("SELECT camera_id, model, width, height, params, prior_focal_length "
-                            "FROM cameras ORDER BY camera_id").fetchall()
-        in_rigs = {sensor for (sensor,) in conn.execute(
-            "SELECT sensor_id FROM rig_sensors WHERE sensor_type = ? UNION "
-            "SELECT ref_sensor_id FROM rigs r WHERE ref_sensor_type = ? AND EXISTS "
-            "(SELECT 1 FROM rig_sensors s WHERE s.rig_id = r.rig_id)", (CAMERA, CAMERA))}
-        kinds: dict[tuple, int] = {}
-        joined: dict[int, int] = {}
-        for camera_id, *kind in rows:
-            if camera_id not in in_rigs:
-                keep = kinds.setdefault(tuple(kind), camera_id)
-                if keep != camera_id:
-                    joined[camera_id] = keep
+        joined = _cameras_to_join(conn)
         if not joined:
             return 0
         rig_of = dict(conn.execute("SELECT ref_sensor_id, rig_id FROM rigs WHERE ref_sensor_type = ?",
                                    (CAMERA,)))
         for gone, keep in joined.items():
-            conn.execute("UPDATE images SET camera_id = ? WHERE camera_id = ?", (keep, gone))
-            conn.execute("UPDATE frame_data SET sensor_id = ? WHERE sensor_id = ? AND sensor_type = ?",
-                         (keep, gone, CAMERA))
-            conn.execute("UPDATE pose_priors SET corr_sensor_id = ? "
-                         "WHERE corr_sensor_id = ? AND corr_sensor_type = ?", (keep, gone, CAMERA))
-            if gone in rig_of and keep in rig_of:
-                conn.execute("UPDATE frames SET rig_id = ? WHERE rig_id = ?", (rig_of[keep], rig_of[gone]))
-                conn.execute("DELETE FROM rigs WHERE rig_id = ?", (rig_of[gone],))
-            elif gone in rig_of:  # the kept camera had no rig yet: this one becomes its rig
-                conn.execute("UPDATE rigs SET ref_sensor_id = ? WHERE rig_id = ?", (keep, rig_of[gone]))
-                rig_of[keep] = rig_of.pop(gone)
-            conn.execute("DELETE FROM cameras WHERE camera_id = ?", (gone,))
+            _join_camera(conn, gone, keep, rig_of)
         _forget_joined_cameras_of_pairs(conn, set(joined))
         conn.commit()
     return len(joined)
+
+
+def _cameras_to_join(conn: sqlite3.Connection) -> dict[int, int]:
+    """Camera id -> the first camera of the same kind (model, size, parameters, prior), for
+    cameras outside multi-sensor rigs."""
+    rows = conn.execute("SELECT camera_id, model, width, height, params, prior_focal_length "
+                        "FROM cameras ORDER BY camera_id").fetchall()
+    in_rigs = {sensor for (sensor,) in conn.execute(
+        "SELECT sensor_id FROM rig_sensors WHERE sensor_type = ? UNION "
+        "SELECT ref_sensor_id FROM rigs r WHERE ref_sensor_type = ? AND EXISTS "
+        "(SELECT 1 FROM rig_sensors s WHERE s.rig_id = r.rig_id)", (CAMERA, CAMERA))}
+    kinds: dict[tuple, int] = {}
+    joined: dict[int, int] = {}
+    for camera_id, *kind in rows:
+        if camera_id not in in_rigs:
+            keep = kinds.setdefault(tuple(kind), camera_id)
+            if keep != camera_id:
+                joined[camera_id] = keep
+    return joined
+
+
+def _join_camera(conn: sqlite3.Connection, gone: int, keep: int, rig_of: dict[int, int]) -> None:
+    """Every row naming camera `gone` names `keep` instead; rig_of (camera -> its rig) follows."""
+    conn.execute("UPDATE images SET camera_id = ? WHERE camera_id = ?", (keep, gone))
+    conn.execute("UPDATE frame_data SET sensor_id = ? WHERE sensor_id = ? AND sensor_type = ?",
+                 (keep, gone, CAMERA))
+    conn.execute("UPDATE pose_priors SET corr_sensor_id = ? "
+                 "WHERE corr_sensor_id = ? AND corr_sensor_type = ?", (keep, gone, CAMERA))
+    if gone in rig_of and keep in rig_of:
+        conn.execute("UPDATE frames SET rig_id = ? WHERE rig_id = ?", (rig_of[keep], rig_of[gone]))
+        conn.execute("DELETE FROM rigs WHERE rig_id = ?", (rig_of[gone],))
+    elif gone in rig_of:  # the kept camera had no rig yet: this one becomes its rig
+        conn.execute("UPDATE rigs SET ref_sensor_id = ? WHERE rig_id = ?", (keep, rig_of[gone]))
+        rig_of[keep] = rig_of.pop(gone)
+    conn.execute("DELETE FROM cameras WHERE camera_id = ?", (gone,))
 
 
 def _forget_joined_cameras_of_pairs(conn: sqlite3.Connection, joined: set[int]) -> None:
