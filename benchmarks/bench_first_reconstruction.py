@@ -29,10 +29,10 @@ import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.
 import pycolmap
 
 from guided_sfm import sample
-from guided_sfm.core import workspace
 from guided_sfm.core.errors import EmptyModel
-from guided_sfm.core.sfm import SfmOptions, set_colmap_verbosity
+from guided_sfm.core.sfm import RunContext, SfmOptions, set_colmap_verbosity
 from guided_sfm.core.stage_clock import StageClock
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.demo import run_demo
 
 Build = Callable[[Path, Path], dict[str, float]]
@@ -40,7 +40,8 @@ Build = Callable[[Path, Path], dict[str, float]]
 
 def bare_pycolmap(images: Path, out: Path) -> dict[str, float]:
     """What a user of pycolmap gets without choosing anything; shaped as a workspace afterwards."""
-    database, seconds = out / workspace.DATABASE, {}
+    workspace = Workspace(out)
+    database, seconds = workspace.database, {}
     start = time.perf_counter()
     pycolmap.extract_features(database, images)
     seconds["extract"] = time.perf_counter() - start
@@ -52,17 +53,17 @@ def bare_pycolmap(images: Path, out: Path) -> dict[str, float]:
         models = pycolmap.incremental_mapping(database, images, tmp)
     seconds["map"] = time.perf_counter() - start
     for index, model in enumerate(sorted(models.values(), key=lambda m: -m.num_reg_images())):
-        (out / workspace.SPARSE / str(index)).mkdir(parents=True)
-        model.write_binary(out / workspace.SPARSE / str(index))
-    workspace.write_meta(out, {"image_dir": str(images.resolve())})
-    workspace.write_scene(out)
+        workspace.model_dir(index).mkdir(parents=True)
+        model.write_binary(workspace.model_dir(index))
+    workspace.write_meta({"image_dir": str(images.resolve())})
+    workspace.write_scene()
     return seconds
 
 
 def guided(options: SfmOptions) -> Build:
     def build(images: Path, out: Path) -> dict[str, float]:
         clock = StageClock()
-        workspace.reconstruct(images, out, options, clock)
+        Workspace(out).reconstruct(images, RunContext(options, clock))
         return {s["stage"]: s["seconds"] for s in clock.report()["stages"]}
 
     return build
@@ -108,7 +109,7 @@ def measure(layout: str, runs: int, root: Path) -> dict[str, dict]:
             print(f"run {run + 1}/{runs} {name}: {sum(times[name][-1].values()):.1f} s",
                   file=sys.stderr, flush=True)
             if run == 0:
-                models = workspace.load_models(out)
+                models = Workspace(out).load_models()
                 results[name] = {"registered": models[0].num_reg_images() if models else 0,
                                  "models": len(models),
                                  "demo": demo_outcome(rendered, out, root / f"demo-{_slug(name)}")}

@@ -14,32 +14,34 @@ from pathlib import Path
 import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.py)
 
 from guided_sfm import sample
-from guided_sfm.core import evaluation, simulated_user, workspace
-from guided_sfm.core.sfm import SfmOptions, set_colmap_verbosity
+from guided_sfm.core import evaluation, simulated_user
+from guided_sfm.core.sfm import RunContext, set_colmap_verbosity
 from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.core.truth import load_truth
 from guided_sfm.core.types import EditSet
+from guided_sfm.core.workspace import Workspace
 
 
 def run(layout: str, out: Path) -> dict[str, float]:
     clock = StageClock()
     with clock.timed("render"):
         sample.write_sample(out / "sample", layout, seed=0)
-    workspace.reconstruct(out / "sample" / "images", out / "ws0", SfmOptions(), clock)
+    ws0, ws1, cold = Workspace(out / "ws0"), Workspace(out / "ws1"), Workspace(out / "ws1-cold")
+    ws0.reconstruct(out / "sample" / "images", RunContext(progress=clock))
     with clock.timed("scene"):
-        (out / "ws0" / workspace.SCENE).unlink()
-        scene = workspace.load_scene(out / "ws0")
+        ws0.scene_file.unlink()
+        scene = ws0.scene()
     truth = load_truth(out / "sample" / "truth.json")
-    status = evaluation.camera_status(out / "ws0", truth)
+    status = evaluation.camera_status(ws0, truth)
     edits = EditSet(simulated_user.place_cameras(scene, truth, status.wrong,
                                                  status.truth_from_model), rule="paper")
     with clock.timed("prune"):
-        workspace.prune(out / "ws0", edits, out / "ws1")
-    shutil.copytree(out / "ws1", out / "ws1-cold")
+        ws0.prune(edits, ws1)
+    shutil.copytree(ws1.root, cold.root)
     with clock.timed("re-map warm"):
-        report = workspace.map_again(out / "ws1")
+        report = ws1.map_again()
     with clock.timed("re-map cold"):
-        workspace.map_again(out / "ws1-cold", cold=True)
+        cold.map_again(cold=True)
     seconds = clock.take()
     seconds["moved cameras"] = len(edits.cameras)
     seconds["warm fell back"] = report.fallback or "no"

@@ -13,8 +13,8 @@ import time
 import numpy as np
 import shapely
 
-from guided_sfm.core.frustum import frustum_polygons
-from guided_sfm.core.pruning import placed_poses, prune_pairs
+from guided_sfm.core.rule.driver import prune_pairs
+from guided_sfm.core.rule.frustum import frustum_polygons, placed_frusta
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
 
 NEIGHBOURS = 30
@@ -50,13 +50,14 @@ def synthetic(count: int, seed: int = 0) -> tuple[TopDownScene, EditSet, dict]:
     moved_xy = xy + rng.normal(scale=4.0, size=xy.shape)
     moved_yaw = yaw + rng.normal(scale=60.0, size=count)
     edits = EditSet([CameraEdit(i + 1, float(x), float(y), float(w))
-                     for i, ((x, y), w) in enumerate(zip(moved_xy, moved_yaw, strict=True))])
+                     for i, ((x, y), w) in enumerate(zip(moved_xy, moved_yaw, strict=True))],
+                    rule="paper")
     return TopDownScene(FRAME, cameras, np.zeros((0, 2))), edits, nearest_pairs(xy, NEIGHBOURS)
 
 
 def prebuilt_loop(scene: TopDownScene, edits: EditSet, pairs) -> list[tuple[int, int]]:
     """Polygons built once per camera, then one .intersects call per pair."""
-    poses = placed_poses(scene, {e.image_id: e for e in edits.cameras})
+    poses = placed_frusta(scene, {e.image_id: e for e in edits.cameras})
     ids = list(poses)
     values = np.array([poses[i] for i in ids], dtype=float)
     polygons = dict(zip(ids, frustum_polygons(*values.T), strict=True))
@@ -65,7 +66,7 @@ def prebuilt_loop(scene: TopDownScene, edits: EditSet, pairs) -> list[tuple[int,
 
 def naive_loop(scene: TopDownScene, edits: EditSet, pairs) -> list[tuple[int, int]]:
     """Both triangles built from the poses for every pair, then .intersects."""
-    poses = placed_poses(scene, {e.image_id: e for e in edits.cameras})
+    poses = placed_frusta(scene, {e.image_id: e for e in edits.cameras})
     deleted = []
     for a, b in pairs:
         triangles = [shapely.Polygon(_triangle(*poses[i])) for i in (a, b)]

@@ -29,10 +29,11 @@ import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.
 import pycolmap
 
 from guided_sfm import sample
-from guided_sfm.core import colmap_model, evaluation, metrics, remap, sfm, simulated_user, workspace
+from guided_sfm.core import colmap_model, evaluation, metrics, remap, sfm, simulated_user
 from guided_sfm.core.sfm import set_colmap_verbosity
 from guided_sfm.core.truth import load_truth
 from guided_sfm.core.types import EditSet
+from guided_sfm.core.workspace import Workspace
 
 TARGETS = {"layout": 1.8, "synthetic": 5.0}
 MAX_MAE_GAP_DEG = 0.1
@@ -79,24 +80,25 @@ def interleaved(runs: int, run: Run, truth: dict, moved_names: list[str]) -> dic
 def layout_scene(layout: str, runs: int, root: Path) -> dict:
     """The demo's first correction of a rendered layout, mapped again cold and warm."""
     sample.write_sample(root / "sample", layout, seed=0)
-    workspace.reconstruct(root / "sample" / "images", root / "ws0")
+    ws0, ws1 = Workspace(root / "ws0"), Workspace(root / "ws1")
+    ws0.reconstruct(root / "sample" / "images")
     truth = load_truth(root / "sample" / "truth.json")
-    status = evaluation.camera_status(root / "ws0", truth)
+    status = evaluation.camera_status(ws0, truth)
     targets = [n for n in status.wrong + status.unregistered if n in truth.cameras]
-    edits = EditSet(simulated_user.place_cameras(workspace.load_scene(root / "ws0"), truth, targets,
+    edits = EditSet(simulated_user.place_cameras(ws0.scene(), truth, targets,
                                                  status.truth_from_model, 1), rule="default")
-    workspace.prune(root / "ws0", edits, root / "ws1")
-    names = workspace.image_ids(root / "ws1")
+    ws0.prune(edits, ws1)
+    names = ws1.image_ids()
     moved = {c.image_id for c in edits.cameras}
 
     def run(cold: bool) -> tuple[float, list, remap.MapReport]:
-        copy = root / "run"
-        shutil.rmtree(copy, ignore_errors=True)
-        shutil.copytree(root / "ws1", copy)
+        copy = Workspace(root / "run")
+        shutil.rmtree(copy.root, ignore_errors=True)
+        shutil.copytree(ws1.root, copy.root)
         start = time.perf_counter()
-        report = workspace.map_again(copy, cold=cold)
+        report = copy.map_again(cold=cold)
         took = time.perf_counter() - start
-        return took, workspace.load_models(copy), report
+        return took, copy.load_models(), report
 
     truth_poses = {n: (c.rotation, c.center) for n, c in truth.cameras.items()}
     moved_names = [n for n, i in names.items() if i in moved]

@@ -16,15 +16,16 @@ from pathlib import Path
 
 import numpy as np
 
-from guided_sfm.core import evidence as ev
-from guided_sfm.core import workspace
-from guided_sfm.core.match_placement import placement_test
-from guided_sfm.core.placement import place
-from guided_sfm.core.pruning import _tested_pairs, frustum_test, placed_poses, prune_pairs
-from guided_sfm.core.relative_pose import relative_pose_test
-from guided_sfm.core.relative_rotation import rotation_test
-from guided_sfm.core.tolerances import Tolerances
+from guided_sfm.core.rule import evidence as ev
+from guided_sfm.core.rule.driver import prune_pairs, tested_pairs
+from guided_sfm.core.rule.frustum import frustum_test, placed_frusta
+from guided_sfm.core.rule.match_placement import placement_test
+from guided_sfm.core.rule.motion import motions_of
+from guided_sfm.core.rule.relative_pose import relative_pose_test
+from guided_sfm.core.rule.relative_rotation import rotation_test
+from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.types import CameraEdit, EditSet
+from guided_sfm.core.workspace import Workspace
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' hand-made captures
 from tests.core.synthetic import Capture, in_view, look  # noqa: E402
@@ -87,20 +88,20 @@ def bench_synthetic(count: int, neighbours: int, runs: int) -> None:
     scene, edits, pairs, evidence = synthetic_capture(count, neighbours, seed=0)
     matches = sum(len(m) for m in evidence.matches.values())
     print(f"{count} cameras, {len(pairs)} pairs, {matches} inlier matches, all cameras moved")
-    moved = {e.image_id: e for e in edits.cameras}
+    placements = {e.image_id: e for e in edits.cameras}
     tolerances = Tolerances()
-    poses = placed_poses(scene, moved)
-    tested = _tested_pairs(pairs, moved, poses)
+    frusta = placed_frusta(scene, placements)
+    tested = tested_pairs(pairs, placements, frusta)
     steps = {
         "flat matches": lambda: ev.flat_matches(evidence, tested),
-        "placement (3D moves)": lambda: place(scene, moved, evidence),
+        "3D motions": lambda: motions_of(scene, placements, evidence),
     }
-    flat, placement = ev.flat_matches(evidence, tested), place(scene, moved, evidence)
+    flat, motions = ev.flat_matches(evidence, tested), motions_of(scene, placements, evidence)
     steps |= {
-        "frustum test": lambda: frustum_test(tested, poses),
-        "match-placement test": lambda: placement_test(flat, placement, evidence, tolerances),
-        "relative-pose test": lambda: relative_pose_test(flat, placement, evidence, tolerances),
-        "relative-rotation test": lambda: rotation_test(flat, placement, evidence, tolerances),
+        "frustum test": lambda: frustum_test(tested, frusta),
+        "match-placement test": lambda: placement_test(flat, motions, evidence, tolerances),
+        "relative-pose test": lambda: relative_pose_test(flat, motions, evidence, tolerances),
+        "relative-rotation test": lambda: rotation_test(flat, motions, evidence, tolerances),
         "whole rule (prune_pairs)": lambda: prune_pairs(scene, edits, pairs, evidence),
     }
     print(f"  {'step':<26} {'wall s':>8} {'cpu s':>8}")
@@ -111,17 +112,15 @@ def bench_synthetic(count: int, neighbours: int, runs: int) -> None:
     print(f"  deleted {len(result.deleted)} pairs; by test {result.removed_by_test}")
 
 
-def bench_gather(ws: Path, runs: int) -> None:
-    pairs = workspace.verified_pairs(ws)
-    scene = workspace.load_scene(ws)
-    everyone = EditSet([], rule="default")
-    ids = [c.image_id for c in scene.cameras if c.registered]
+def bench_gather(root: Path, runs: int) -> None:
+    workspace = Workspace(root)
+    pairs = workspace.verified_pairs()
+    ids = [c.image_id for c in workspace.scene().cameras if c.registered]
     (seconds, cpu), evidence = median_time(
-        lambda: ev.gather(workspace.require(ws), ws / "sparse" / "0",
-                          ev.pairs_touching(pairs, ids)), runs)
-    print(f"gather evidence from {ws}: {len(evidence.rows)} images, {len(evidence.matches)} pairs, "
+        lambda: ev.gather(workspace.require(), workspace.model_dir(), ev.pairs_touching(pairs, ids)),
+        runs)
+    print(f"gather evidence from {root}: {len(evidence.rows)} images, {len(evidence.matches)} pairs, "
           f"{len(evidence.rays)} keypoints: {seconds:.3f} s wall, {cpu:.3f} s cpu")
-    del everyone
 
 
 def main() -> None:

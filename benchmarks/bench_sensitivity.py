@@ -4,7 +4,7 @@ Run: .venv/bin/python benchmarks/bench_sensitivity.py [--layouts murals,office,t
          [--rounds 2] [--factors 0.7,1.5] [--work DIR] [--json]
 
 Each layout is rendered and reconstructed once (kept in --work, so a second run reuses it); then
-`demo --rounds N --reuse` runs with the defaults and with every tolerance of core/tolerances.py
+`demo --rounds N --reuse` runs with the defaults and with every tolerance of core/rule/tolerances.py
 scaled by each factor, all from that same first reconstruction. Per run: the share of the
 initially wrong cameras fixed, the final number of models, and the pruning pooled over the rounds
 (precision, F1). The check: >= 95% fixed in one model, every run. A --work folder is reused as it
@@ -23,8 +23,8 @@ from pathlib import Path
 
 import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.py)
 
+from guided_sfm.core.rule.tolerances import NAMES, Tolerances
 from guided_sfm.core.sfm import set_colmap_verbosity
-from guided_sfm.core.tolerances import NAMES, Tolerances
 from guided_sfm.demo import run_demo
 
 TARGET_FIXED = 0.95

@@ -17,8 +17,8 @@ from sqlalchemy import make_url, text
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm.api.app import create_app
-from guided_sfm.core import workspace as ws
-from guided_sfm.core.sfm import SfmOptions, set_colmap_verbosity
+from guided_sfm.core.sfm import RunContext, SfmOptions, set_colmap_verbosity
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.migrate import upgrade
 from guided_sfm.db.session import make_engine
 from guided_sfm.settings import Settings
@@ -131,7 +131,7 @@ def tiny_reconstruction(tiny_images, tmp_path_factory) -> Path:
     set_colmap_verbosity(False)
     pycolmap.set_random_seed(0)
     workspace = tmp_path_factory.mktemp("tiny-ws") / "ws"
-    ws.reconstruct(tiny_images / "images", workspace, TINY_OPTIONS)
+    Workspace(workspace).reconstruct(tiny_images / "images", RunContext(TINY_OPTIONS))
     return workspace
 
 

@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
 
 from guided_sfm.actions.images import make_thumbnail
-from guided_sfm.core import workspace as ws
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import Image, Project, Version
 from guided_sfm.storage import ArtifactStore, link_tree
 
@@ -78,10 +78,10 @@ def make_version(session: Session, store: ArtifactStore, project_id: int, worksp
         make_thumbnail(target / row.name, store.thumbnail(project_id, row.id))
     with store.staging(project_id) as staging:
         link_tree(workspace, staging / "ws")
-        ws.write_meta(staging / "ws", {"image_dir": str(target)})
+        Workspace(staging / "ws").write_meta({"image_dir": str(target)})
         relative = store.publish(project_id, staging / "ws")
     version = Version(project_id=project_id, parent_id=project.head_version_id, kind="reconstruct",
-                      author_id=author_id, message="made by a test", stats=ws.stats(workspace),
+                      author_id=author_id, message="made by a test", stats=Workspace(workspace).stats(),
                       path=relative)
     session.add(version)
     session.flush()

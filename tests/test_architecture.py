@@ -8,8 +8,8 @@ FORBIDDEN = ("fastapi", "starlette", "celery", "kombu", "sqlalchemy", "alembic",
 
 def test_core_imports_no_web_queue_or_orm():
     modules = [
-        "colmap_db", "colmap_model", "edits", "errors", "evaluation", "frustum", "geometry",
-        "ground_plane", "match_graph", "metrics", "pruning", "sfm", "simulated_user", "topdown",
+        "colmap_db", "colmap_model", "edits", "errors", "evaluation", "rule.frustum", "geometry",
+        "ground_plane", "match_graph", "metrics", "rule.driver", "sfm", "simulated_user", "topdown",
         "truth", "types", "workspace",
     ]
     code = "; ".join(f"import guided_sfm.core.{m}" for m in modules)

@@ -4,7 +4,7 @@ const RAD = Math.PI / 180;
 
 export const wrapDeg = (deg) => deg - 360 * Math.ceil((deg - 180) / 360);
 
-// Frustum triangle [apex, right corner, left corner] as in core/frustum.py.
+// Frustum triangle [apex, right corner, left corner] as in core/rule/frustum.py.
 export function frustum(pose) {
   const half = (pose.fov_deg * RAD) / 2;
   const side = pose.range / Math.cos(half);

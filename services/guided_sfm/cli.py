@@ -13,7 +13,7 @@ import PIL.Image  # noqa: F401  (before pycolmap: Pillow after it corrupts the h
 from tqdm import tqdm
 
 from guided_sfm.core.errors import DomainError
-from guided_sfm.core.types import Progress
+from guided_sfm.core.types import DEFAULT_RULE, RULES, Progress
 
 
 class ProgressBar:
@@ -78,19 +78,21 @@ def _options(args: argparse.Namespace):
 
 
 def cmd_reconstruct(args: argparse.Namespace) -> None:
-    from guided_sfm.core import workspace
+    from guided_sfm.core.sfm import RunContext
     from guided_sfm.core.stage_clock import StageClock, format_report
+    from guided_sfm.core.workspace import Workspace
 
+    workspace = Workspace(args.workspace)
     with ProgressBar() as bar:
         clock = StageClock(bar)
-        workspace.reconstruct(Path(args.images_dir), Path(args.workspace), _options(args), clock)
-    print_table([*sorted(workspace.stats(Path(args.workspace)).items()), *format_report(clock.report())])
+        workspace.reconstruct(Path(args.images_dir), RunContext(_options(args), clock))
+    print_table([*sorted(workspace.stats().items()), *format_report(clock.report())])
 
 
 def cmd_scene(args: argparse.Namespace) -> None:
-    from guided_sfm.core import workspace
+    from guided_sfm.core.workspace import Workspace
 
-    scene = workspace.load_scene(Path(args.workspace))
+    scene = Workspace(args.workspace).scene()
     if args.png:
         from guided_sfm import plot
 
@@ -109,17 +111,13 @@ def _read_json(path: str) -> object:
 
 
 def cmd_prune(args: argparse.Namespace) -> None:
-    from guided_sfm.core import colmap_db, workspace
     from guided_sfm.core.edits import parse_edits
+    from guided_sfm.core.workspace import Workspace, pruning_record
 
-    base = Path(args.workspace)
-    ids = workspace.image_ids(base)
-    edits = parse_edits(_read_json(args.edits), ids)
-    if args.dry_run:
-        outcome = workspace.preview(base, edits)
-    else:
-        outcome = workspace.prune(base, edits, Path(args.new_workspace))
-    record = workspace.pruning_record(outcome, colmap_db.image_names(workspace.require(base)))
+    base = Workspace(args.workspace)
+    edits = parse_edits(_read_json(args.edits), base.image_ids())
+    outcome = base.preview(edits) if args.dry_run else base.prune(edits, Workspace(args.new_workspace))
+    record = pruning_record(outcome, base.image_names())
     if args.json:
         print_json(record)
     else:
@@ -131,23 +129,25 @@ def cmd_prune(args: argparse.Namespace) -> None:
 
 
 def cmd_map(args: argparse.Namespace) -> None:
-    from guided_sfm.core import workspace
+    from guided_sfm.core.sfm import RunContext
     from guided_sfm.core.stage_clock import StageClock, format_report
+    from guided_sfm.core.workspace import Workspace
 
+    workspace = Workspace(args.workspace)
     with ProgressBar() as bar:
         clock = StageClock(bar)
-        report = workspace.map_again(Path(args.workspace), options=_options(args), progress=clock,
-                                     cold=args.cold)
+        report = workspace.map_again(RunContext(_options(args), clock), cold=args.cold)
     print_table([("mode", report.mode), ("fallback", report.fallback or "-"),
-                 ("seconds", report.seconds), *sorted(workspace.stats(Path(args.workspace)).items()),
+                 ("seconds", report.seconds), *sorted(workspace.stats().items()),
                  *format_report(clock.report())])
 
 
 def cmd_evaluate(args: argparse.Namespace) -> None:
     from guided_sfm.core import evaluation
+    from guided_sfm.core.workspace import Workspace
 
-    reference = Path(args.reference_from) if args.reference_from else None
-    report = evaluation.evaluate_workspace(Path(args.workspace), Path(args.truth), reference)
+    reference = Workspace(args.reference_from) if args.reference_from else None
+    report = evaluation.evaluate_workspace(Workspace(args.workspace), Path(args.truth), reference)
     if args.json:
         print_json(report)
     else:
@@ -206,8 +206,8 @@ def build_parser() -> argparse.ArgumentParser:
           ("--json", {"action": "store_true"})])
     _add(sub, "demo", cmd_demo, "the paper's loop headless on a freshly rendered sample",
          [("--layout", {"default": None}), ("--seed", {"type": int, "default": 0}),
-          ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": "default",
-                                                               "choices": ["paper", "default"]}),
+          ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": DEFAULT_RULE,
+                                                               "choices": list(RULES)}),
           ("--out", {"default": None}), ("--cold", {"action": "store_true"}),
           ("--tolerance", {"action": "append", "metavar": "NAME=VALUE",
                            "help": "override one of the default rule's tolerances"}),

@@ -7,15 +7,17 @@ import tempfile
 from pathlib import Path
 
 from guided_sfm import sample
-from guided_sfm.core import evaluation, metrics, simulated_user, workspace
-from guided_sfm.core.sfm import SfmOptions
+from guided_sfm.core import evaluation, metrics, simulated_user
+from guided_sfm.core.edits import parse_edits
+from guided_sfm.core.sfm import RunContext, SfmOptions
 from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.core.truth import load_truth
-from guided_sfm.core.types import EditSet, Progress, no_progress
+from guided_sfm.core.types import DEFAULT_RULE, Progress, no_progress
+from guided_sfm.core.workspace import Workspace
 
 
 def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1,
-             rule: str = "default", out_dir: Path | None = None,
+             rule: str = DEFAULT_RULE, out_dir: Path | None = None,
              options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
              cold: bool = False, tolerances: dict[str, float] | None = None,
              reuse: bool = False) -> dict:
@@ -29,12 +31,13 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
             return run_demo(layout, seed, rounds, rule, Path(tmp), options, progress, cold,
                             tolerances)
     clock = StageClock(progress)
+    run = RunContext(options, clock)
     truth_file = out_dir / "sample" / "truth.json"
-    base = out_dir / "round0"
-    if not (reuse and truth_file.is_file() and (base / workspace.SPARSE).is_dir()):
+    base = Workspace(out_dir / "round0")
+    if not (reuse and truth_file.is_file() and base.sparse.is_dir()):
         with clock.timed("render"):
             sample.write_sample(out_dir / "sample", layout, seed)
-        workspace.reconstruct(out_dir / "sample" / "images", base, options, clock)
+        base.reconstruct(out_dir / "sample" / "images", run)
     truth = load_truth(truth_file)
     first = evaluation.evaluate_workspace(base, truth_file)
     reports = [{"round": 0, **first, "seconds": clock.take()}]
@@ -45,13 +48,14 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         targets = [n for n in status.wrong + status.unregistered if n in truth.cameras]
         if not targets:
             break
-        edits = EditSet(simulated_user.place_cameras(workspace.load_scene(base), truth, targets,
-                                                     status.truth_from_model, seed + number),
-                        rule=rule, tolerances=dict(tolerances or {}))
-        new = out_dir / f"round{number}"
+        placements = simulated_user.place_cameras(base.scene(), truth, targets,
+                                                  status.truth_from_model, seed + number)
+        edits = parse_edits({"cameras": [vars(c) for c in placements], "rule": rule,
+                             "tolerances": dict(tolerances or {})}, base.image_ids())
+        new = Workspace(out_dir / f"round{number}")
         with clock.timed("prune"):
-            outcome = workspace.prune(base, edits, new)
-        mapped = workspace.map_again(new, options=options, progress=clock, cold=cold)
+            outcome = base.prune(edits, new)
+        mapped = new.map_again(run, cold=cold)
         report = evaluation.evaluate_workspace(new, truth_file, reference_from=base,
                                                before_reference=reference)
         reports.append({"round": number, **report, "num_moved": len(edits.cameras),

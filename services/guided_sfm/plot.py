@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from guided_sfm.core.frustum import frustum_vertices  # noqa: E402
+from guided_sfm.core.rule.frustum import frustum_vertices  # noqa: E402
 from guided_sfm.core.types import TopDownScene  # noqa: E402
 
 

@@ -153,3 +153,12 @@ def test_apply_queues_a_job_and_refuses_a_stale_base(client, reconstructed, subm
     session.commit()
     stale = client.post(url(s, f"/{eid}/apply"), json={}, headers=s.owner)
     assert stale.status_code == 409 and "head" in stale.json()["detail"]
+
+
+def test_an_edit_set_without_a_rule_gets_the_default_rule(client, reconstructed):
+    s = reconstructed
+    created = client.post(url(s), json={"base_version_id": s.vid}, headers=s.owner)
+    assert created.status_code == 201 and created.json()["rule"] == "default"
+    schema = client.get("/openapi.json").json()["components"]["schemas"]["EditSetIn"]
+    assert schema["properties"]["rule"]["enum"] == ["default", "paper"]
+    assert schema["properties"]["rule"]["default"] == "default"

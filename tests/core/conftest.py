@@ -7,8 +7,8 @@ import PIL.Image  # noqa: F401  (before pycolmap: see the Pillow pitfall in cli.
 import pycolmap
 import pytest
 
-from guided_sfm.core import workspace
-from guided_sfm.core.sfm import SfmOptions, set_colmap_verbosity
+from guided_sfm.core.sfm import RunContext, SfmOptions, set_colmap_verbosity
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.sample import write_sample
 
 set_colmap_verbosity(False)
@@ -25,7 +25,7 @@ def tiny_workspace_ro(tiny_sample, tmp_path_factory) -> Path:
     """A reconstructed workspace that tests must not change (copy it with `tiny_workspace`)."""
     pycolmap.set_random_seed(0)
     ws = tmp_path_factory.mktemp("tiny-ws") / "ws"
-    workspace.reconstruct(tiny_sample / "images", ws, TINY_OPTIONS)
+    Workspace(ws).reconstruct(tiny_sample / "images", RunContext(TINY_OPTIONS))
     return ws
 
 

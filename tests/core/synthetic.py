@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from guided_sfm.core.evidence import Evidence
 from guided_sfm.core.geometry import qvec_from_rotation, viewing_direction, yaw_in_frame
+from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene, pair_key
 from guided_sfm.sample.geometry import look
 

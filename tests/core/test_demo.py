@@ -6,6 +6,7 @@ import pytest
 
 from guided_sfm.core import evaluation
 from guided_sfm.core.truth import load_truth
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.demo import pooled_pruning, run_demo
 
 from .conftest import TINY_OPTIONS
@@ -24,8 +25,9 @@ def test_one_round_fixes_the_folded_cameras(tmp_path):
     assert result["summary"]["fixed"] >= 0.9 * first["num_wrong"]
     assert last["num_models"] == 1
     truth = load_truth(tmp_path / "sample" / "truth.json")
-    right_before = evaluation.camera_status(tmp_path / "round0", truth).right
-    final = evaluation.camera_status(tmp_path / f"round{last['round']}", truth, reference=right_before)
+    right_before = evaluation.camera_status(Workspace(tmp_path / "round0"), truth).right
+    final = evaluation.camera_status(Workspace(tmp_path / f"round{last['round']}"), truth,
+                                     reference=right_before)
     assert set(first["wrong"]) <= set(final.errors), "a wrong camera ended unregistered"
     floor = fmean(final.errors[n].rotation_deg for n in right_before if n in final.errors)
     fixed = fmean(final.errors[n].rotation_deg for n in first["wrong"])

@@ -2,8 +2,7 @@ import numpy as np
 import pytest
 import shapely
 
-from guided_sfm.core.errors import InvalidFrustum
-from guided_sfm.core.frustum import frustum_polygons, frustum_vertices
+from guided_sfm.core.rule.frustum import frustum_polygons, frustum_vertices
 
 
 def test_vertices_apex_axis_and_height():
@@ -40,25 +39,3 @@ def test_triangle_touching_a_corner_intersects():
 def test_disjoint_triangles_do_not_intersect():
     a, b = frustum_polygons([0, 10], [0, 0], [0, 0], [60, 60], [5, 5])
     assert not shapely.intersects(a, b)
-
-
-@pytest.mark.parametrize(("field", "value"), [
-    ("range_", 0.0), ("range_", -1.0), ("range_", np.nan), ("range_", np.inf),
-    ("fov_deg", 0.0), ("fov_deg", 180.0), ("fov_deg", -30.0), ("fov_deg", 200.0),
-    ("fov_deg", np.nan), ("fov_deg", np.inf),
-    ("x", np.nan), ("y", np.inf), ("yaw_deg", np.nan),
-])
-def test_invalid_frustum_is_rejected_naming_camera_and_field(field, value):
-    values = {"x": [0.0, 1.0], "y": [0.0, 1.0], "yaw_deg": [0.0, 1.0], "fov_deg": [60.0, 60.0],
-              "range_": [5.0, 5.0]}
-    values[field] = [values[field][0], value]
-    with pytest.raises(InvalidFrustum) as error:
-        frustum_polygons(**values, ids=[11, 42])
-    message = str(error.value)
-    assert "camera 42" in message
-    assert field.rstrip("_") in message
-
-
-def test_non_numbers_are_rejected():
-    with pytest.raises(InvalidFrustum, match="numbers"):
-        frustum_vertices(0, 0, 0, "wide", 1)

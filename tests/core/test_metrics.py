@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from guided_sfm.core.errors import InvalidInput
-from guided_sfm.core.geometry import rotation_angle_deg, rotation_from_qvec
+from guided_sfm.core.geometry import rotation_angles_deg, rotation_from_qvec
 from guided_sfm.core.metrics import (
     CameraError,
     Similarity,
@@ -25,7 +25,7 @@ def test_similarity_recovered_under_noise_and_30_percent_outliers():
     sim = align_similarity(src, dst, threshold=0.15, seed=0)
     # tolerances: 0.5% scale, 0.2 deg, 3 cm (noise 1 cm on a 20 m wide set)
     assert sim.scale == pytest.approx(SIM.scale, rel=5e-3)
-    assert rotation_angle_deg(sim.rotation, SIM.rotation) < 0.2
+    assert rotation_angles_deg(sim.rotation, SIM.rotation) < 0.2
     np.testing.assert_allclose(sim.translation, SIM.translation, atol=0.03)
     expected = np.ones(100, dtype=bool)
     expected[outliers] = False

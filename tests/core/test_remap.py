@@ -4,12 +4,15 @@ import hashlib
 
 import pytest
 
-from guided_sfm.core import remap, sfm, workspace
+from guided_sfm.core import remap, sfm
 from guided_sfm.core.errors import Cancelled, EmptyModel
-from guided_sfm.core.sfm import CancelToken
+from guided_sfm.core.sfm import CancelToken, RunContext
 from guided_sfm.core.types import CameraEdit, EditSet
+from guided_sfm.core.workspace import Workspace
 
 from .conftest import TINY_OPTIONS
+
+TINY_RUN = RunContext(TINY_OPTIONS)
 
 
 def _far_edit(scene):
@@ -25,7 +28,7 @@ def _near_edit(scene):
 
 
 def test_without_images_drops_the_moved_cameras_points(tiny_workspace_ro):
-    model = workspace.load_models(tiny_workspace_ro)[0]
+    model = Workspace(tiny_workspace_ro).load_models()[0]
     image_id = sorted(model.reg_image_ids())[0]
     trimmed = remap.without_images(model, {image_id})
     assert image_id not in set(trimmed.reg_image_ids())
@@ -38,20 +41,20 @@ def test_without_images_drops_the_moved_cameras_points(tiny_workspace_ro):
 
 
 def test_warm_remap_registers_the_moved_camera_again(tiny_workspace, tmp_path):
-    edits = _near_edit(workspace.load_scene(tiny_workspace))
-    new = tmp_path / "next"
-    workspace.prune(tiny_workspace, edits, new)
-    report = workspace.map_again(new, options=TINY_OPTIONS)
+    edits = _near_edit(Workspace(tiny_workspace).scene())
+    new = Workspace(tmp_path / "next")
+    Workspace(tiny_workspace).prune(edits, new)
+    report = new.map_again(TINY_RUN)
     assert report.mode == "warm" and report.fallback is None
-    assert report.num_registered == workspace.stats(tiny_workspace)["num_registered"]
-    assert workspace.load_scene(new).camera(edits.cameras[0].image_id).registered
+    assert report.num_registered == Workspace(tiny_workspace).stats()["num_registered"]
+    assert new.scene().camera(edits.cameras[0].image_id).registered
 
 
 def test_warm_remap_falls_back_to_cold_when_a_camera_cannot_return(tiny_workspace, tmp_path):
-    edits = _far_edit(workspace.load_scene(tiny_workspace))
-    new = tmp_path / "next"
-    workspace.prune(tiny_workspace, edits, new)
-    report = workspace.map_again(new, options=TINY_OPTIONS)
+    edits = _far_edit(Workspace(tiny_workspace).scene())
+    new = Workspace(tmp_path / "next")
+    Workspace(tiny_workspace).prune(edits, new)
+    report = new.map_again(TINY_RUN)
     assert report.mode == "cold" and "registered" in report.fallback
     assert "fell back to a cold re-map" in report.message()
 
@@ -67,29 +70,28 @@ def test_warm_result_is_kept_when_the_cold_fallback_does_worse(tiny_workspace, t
 
     monkeypatch.setattr(remap, "warm_result_problem", lambda *args: "forced by the test")
     monkeypatch.setattr(sfm, "map_database", cold_registers_nothing)
-    edits = _near_edit(workspace.load_scene(tiny_workspace))
-    new = tmp_path / "next"
-    workspace.prune(tiny_workspace, edits, new)
-    report = workspace.map_again(new, options=TINY_OPTIONS)
+    edits = _near_edit(Workspace(tiny_workspace).scene())
+    new = Workspace(tmp_path / "next")
+    Workspace(tiny_workspace).prune(edits, new)
+    report = new.map_again(TINY_RUN)
     assert report.mode == "warm" and report.fallback == "forced by the test"
     assert "cold re-map did worse still" in report.message()
-    assert workspace.stats(new)["num_registered"] == workspace.stats(tiny_workspace)["num_registered"]
+    assert new.stats()["num_registered"] == Workspace(tiny_workspace).stats()["num_registered"]
 
 
 def test_cancelled_warm_remap_leaves_the_workspace_untouched(tiny_workspace, tmp_path):
-    edits = _near_edit(workspace.load_scene(tiny_workspace))
-    new = tmp_path / "next"
-    workspace.prune(tiny_workspace, edits, new)
+    edits = _near_edit(Workspace(tiny_workspace).scene())
+    new = Workspace(tmp_path / "next")
+    Workspace(tiny_workspace).prune(edits, new)
     digest = {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
-              for p in (new / "sparse" / "0").iterdir()}
+              for p in new.model_dir().iterdir()}
     token = CancelToken()
 
     def cancel_on_first_report(stage, fraction):
         token.cancel()
 
     with pytest.raises(Cancelled):
-        workspace.map_again(new, options=TINY_OPTIONS, progress=cancel_on_first_report,
-                            cancel=token)
+        new.map_again(RunContext(TINY_OPTIONS, cancel_on_first_report, token))
     assert digest == {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
-                      for p in (new / "sparse" / "0").iterdir()}
-    assert not (new / "sparse.new").exists()
+                      for p in new.model_dir().iterdir()}
+    assert not (new.root / "sparse.new").exists()

@@ -3,9 +3,11 @@
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import evaluation, evidence, metrics, model_files, simulated_user, workspace
+from guided_sfm.core import evaluation, metrics, model_files, simulated_user
+from guided_sfm.core.rule import evidence
 from guided_sfm.core.truth import false_pairs, load_truth
 from guided_sfm.core.types import EditSet
+from guided_sfm.core.workspace import Workspace
 
 
 def test_model_files_agree_with_pycolmap(tiny_workspace_ro):
@@ -22,9 +24,9 @@ def test_model_files_agree_with_pycolmap(tiny_workspace_ro):
 
 
 def test_evidence_rays_and_points_of_a_registered_image(tiny_workspace_ro):
-    pairs = workspace.verified_pairs(tiny_workspace_ro)
-    gathered = evidence.gather(workspace.require(tiny_workspace_ro),
-                               tiny_workspace_ro / "sparse" / "0", list(pairs)[:5])
+    workspace = Workspace(tiny_workspace_ro)
+    pairs = workspace.verified_pairs()
+    gathered = evidence.gather(workspace.require(), workspace.model_dir(), list(pairs)[:5])
     assert np.allclose(np.linalg.norm(gathered.rays, axis=1), 1.0)
     row = 0
     keypoints = slice(gathered.offsets[row], gathered.offsets[row + 1])
@@ -39,13 +41,14 @@ def test_evidence_rays_and_points_of_a_registered_image(tiny_workspace_ro):
 
 def test_default_rule_cuts_the_tiny_scenes_false_pairs(tiny_workspace_ro, tiny_sample):
     truth = load_truth(tiny_sample / "truth.json")
-    status = evaluation.camera_status(tiny_workspace_ro, truth)
-    scene = workspace.load_scene(tiny_workspace_ro)
+    workspace = Workspace(tiny_workspace_ro)
+    status = evaluation.camera_status(workspace, truth)
+    scene = workspace.scene()
     edits = EditSet(simulated_user.place_cameras(scene, truth, status.wrong, status.truth_from_model,
                                                  seed=1), rule="default")
-    outcome = workspace.preview(tiny_workspace_ro, edits)
+    outcome = workspace.preview(edits)
     moved = {e.image_id for e in edits.cameras}
-    false = {p for p in false_pairs(workspace.require(tiny_workspace_ro), truth) if set(p) & moved}
+    false = {p for p in false_pairs(workspace.require(), truth) if set(p) & moved}
     assert status.wrong and false, "the tiny scene is expected to fold (see test_sample.py)"
     precision, recall, _ = metrics.pruning_scores(set(outcome.deleted), false)
     assert precision >= 0.95 and recall >= 0.9

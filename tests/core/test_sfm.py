@@ -8,9 +8,10 @@ import pycolmap
 import pytest
 from PIL import Image
 
-from guided_sfm.core import colmap_db, sfm, workspace
+from guided_sfm.core import colmap_db, sfm
 from guided_sfm.core.errors import InvalidInput
-from guided_sfm.core.sfm import SfmOptions
+from guided_sfm.core.sfm import RunContext, SfmOptions
+from guided_sfm.core.workspace import Workspace
 
 from .conftest import TINY_OPTIONS
 
@@ -63,7 +64,7 @@ def test_images_verify_with_a_camera_each_and_map_with_one_per_size(tiny_sample,
     for name in names[4:]:  # two portrait images: a different kind of image
         Image.open(tiny_sample / "images" / name).transpose(Image.Transpose.ROTATE_90).save(images / name)
     database = tmp_path / "database.db"
-    sfm.extract_features(images, database, TINY_OPTIONS)
+    sfm.extract_features(images, database, RunContext(TINY_OPTIONS))
     cameras, by_image, _ = _cameras(database)
     assert len(cameras) == 6  # one per image while verifying
     with closing(sqlite3.connect(database)) as conn:  # a GPS prior, as a phone photo brings
@@ -71,7 +72,7 @@ def test_images_verify_with_a_camera_each_and_map_with_one_per_size(tiny_sample,
                      (2, by_image[names[1]]))
         conn.commit()
 
-    sfm.match_features(database, TINY_OPTIONS)
+    sfm.match_features(database, RunContext(TINY_OPTIONS))
     cameras, by_image, frames = _cameras(database)
     with Image.open(images / names[0]) as img:
         landscape = img.size
@@ -92,5 +93,5 @@ def test_images_verify_with_a_camera_each_and_map_with_one_per_size(tiny_sample,
 
 
 def test_the_reconstructed_sample_has_one_camera(tiny_workspace_ro):
-    model = workspace.load_models(tiny_workspace_ro)[0]
+    model = Workspace(tiny_workspace_ro).load_models()[0]
     assert len(model.cameras) == 1

@@ -48,8 +48,15 @@ def _expected_range(center, yaw) -> float:
     return float(np.median(depth[inside]))
 
 
-def test_hand_made_scene_positions_yaws_and_ranges():
-    scene = build_scene([_model(HAND_MADE)], [(i, n) for n, i, _, _ in HAND_MADE])
+def _build(models, images, folder, **options):
+    """build_scene on in-memory models: the largest is written to folder, where its points are read."""
+    if models:
+        models[0].write_binary(folder)
+    return build_scene(models, folder, images, **options)
+
+
+def test_hand_made_scene_positions_yaws_and_ranges(tmp_path):
+    scene = _build([_model(HAND_MADE)], [(i, n) for n, i, _, _ in HAND_MADE], tmp_path)
     np.testing.assert_allclose(scene.frame.up, [0, 0, 1], atol=1e-9)
     np.testing.assert_allclose(scene.frame.x_axis, [1, 0, 0], atol=1e-9)
     np.testing.assert_allclose(scene.frame.origin, [4, 0, 0], atol=1e-9)
@@ -67,13 +74,13 @@ def test_hand_made_scene_positions_yaws_and_ranges():
     assert [c.seq for c in scene.cameras] == [0, 1, 2]
 
 
-def test_unregistered_images_other_models_and_blind_cameras():
+def test_unregistered_images_other_models_and_blind_cameras(tmp_path):
     blind = ("d.png", 4, (4.0, 0.0, 1.5), 0.0)
     away = [(n, i, (c[0], c[1], 50.0), y) for n, i, c, y in [blind]]  # looks at the horizon
     largest = _model(HAND_MADE + away)
     other = _model([("e.png", 5, (0.0, 5.0, 1.5), 90.0)], camera_id=2)
     images = [(i, n) for n, i, _, _ in HAND_MADE] + [(4, "d.png"), (5, "e.png"), (6, "f.png")]
-    scene = build_scene([largest, other], images, fov_by_image={6: 55.0})
+    scene = _build([largest, other], images, tmp_path, fov_by_image={6: 55.0})
     by_name = {c.name: c for c in scene.cameras}
     ranges = [by_name[n].range for n in ("a.png", "b.png", "c.png")]
     assert by_name["d.png"].registered
@@ -94,9 +101,9 @@ def synthetic():
     return pycolmap.synthesize_dataset(options)
 
 
-def test_synthetic_scene_matches_the_contract(synthetic):
+def test_synthetic_scene_matches_the_contract(synthetic, tmp_path):
     images = sorted(((i, im.name) for i, im in synthetic.images.items()), key=lambda t: -t[0])
-    scene = build_scene([synthetic], images, max_points=120)
+    scene = _build([synthetic], images, tmp_path, max_points=120)
     data = scene.to_dict()
     assert set(data) >= {"frame", "cameras", "points", "models"}
     assert set(data["frame"]) == {"origin", "x_axis", "y_axis", "up"}
@@ -119,13 +126,13 @@ def test_synthetic_scene_matches_the_contract(synthetic):
         assert camera.range == pytest.approx(np.median(depths))
 
 
-def test_synthetic_scene_is_deterministic(synthetic):
+def test_synthetic_scene_is_deterministic(synthetic, tmp_path):
     images = [(i, im.name) for i, im in synthetic.images.items()]
-    a = build_scene([synthetic], images, max_points=50, seed=3).to_dict()
-    b = build_scene([synthetic], images, max_points=50, seed=3).to_dict()
+    a = _build([synthetic], images, tmp_path, max_points=50, seed=3).to_dict()
+    b = _build([synthetic], images, tmp_path, max_points=50, seed=3).to_dict()
     assert a == b
 
 
-def test_no_model_is_an_error():
+def test_no_model_is_an_error(tmp_path):
     with pytest.raises(EmptyModel):
-        build_scene([], [(1, "a.png")])
+        _build([], [(1, "a.png")], tmp_path)

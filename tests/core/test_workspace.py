@@ -4,16 +4,17 @@ import json
 
 import pytest
 
-from guided_sfm.core import workspace
+from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.errors import InvalidInput, MissingWorkspace, UnknownImage
-from guided_sfm.core.sfm import SfmOptions
+from guided_sfm.core.sfm import RunContext, SfmOptions
 from guided_sfm.core.types import CameraEdit, EditSet
+from guided_sfm.core.workspace import SCENE, Workspace
 
 from .conftest import TINY_OPTIONS
 
 
 def test_reconstruct_registers_the_tiny_scene(tiny_workspace_ro, tiny_sample):
-    stats = workspace.stats(tiny_workspace_ro)
+    stats = Workspace(tiny_workspace_ro).stats()
     images = len(list((tiny_sample / "images").iterdir()))
     assert stats["num_images"] == images
     assert stats["num_registered"] >= images - 1
@@ -22,13 +23,13 @@ def test_reconstruct_registers_the_tiny_scene(tiny_workspace_ro, tiny_sample):
 
 
 def test_scene_lists_every_image_in_capture_order(tiny_workspace_ro):
-    scene = workspace.load_scene(tiny_workspace_ro)
+    scene = Workspace(tiny_workspace_ro).scene()
     names = [c.name for c in scene.cameras]
     assert names == sorted(names)
     assert [c.seq for c in scene.cameras] == list(range(len(names)))
     placed = [c for c in scene.cameras if c.registered]
     assert all(c.x is not None and 0 < c.fov_deg < 180 and c.range > 0 for c in placed)
-    stored = json.loads((tiny_workspace_ro / workspace.SCENE).read_text())
+    stored = json.loads((tiny_workspace_ro / SCENE).read_text())
     assert set(stored) >= {"frame", "cameras", "points", "models"}
 
 
@@ -41,33 +42,33 @@ def _far_away_edit(scene):
 
 
 def test_prune_writes_a_new_workspace_and_keeps_the_base(tiny_workspace, tmp_path):
-    scene = workspace.load_scene(tiny_workspace)
-    edits, moved = _far_away_edit(scene)
-    pairs_before = workspace.verified_pairs(tiny_workspace)
-    new = tmp_path / "next"
-    outcome = workspace.prune(tiny_workspace, edits, new)
+    base = Workspace(tiny_workspace)
+    edits, moved = _far_away_edit(base.scene())
+    pairs_before = base.verified_pairs()
+    new = Workspace(tmp_path / "next")
+    outcome = base.prune(edits, new)
     involving = {p for p in pairs_before if moved.image_id in p}
     assert set(outcome.deleted) == involving and involving
     assert outcome.removed_by_test == {"frustum": len(involving)}
-    assert workspace.verified_pairs(tiny_workspace) == pairs_before
-    assert set(workspace.verified_pairs(new)) == set(pairs_before) - involving
-    assert (new / "sparse" / "0").is_dir() and (new / workspace.EDITS).is_file()
-    record = json.loads((new / workspace.PRUNING).read_text())
+    assert base.verified_pairs() == pairs_before
+    assert set(new.verified_pairs()) == set(pairs_before) - involving
+    assert new.model_dir().is_dir() and new.edits_file.is_file()
+    record = json.loads(new.pruning_file.read_text())
     assert len(record["deleted_pairs"]) == len(involving)
     assert outcome.components_after == outcome.components_before + 1
 
 
 def test_map_again_after_cutting_a_camera_leaves_it_out(tiny_workspace, tmp_path):
-    scene = workspace.load_scene(tiny_workspace)
+    base = Workspace(tiny_workspace)
+    scene = base.scene()
     edits, moved = _far_away_edit(scene)
-    new = tmp_path / "next"
-    workspace.prune(tiny_workspace, edits, new)
-    workspace.map_again(new, options=TINY_OPTIONS, align_to=tiny_workspace,
-                        moved=frozenset({moved.image_id}))
-    after = workspace.load_scene(new)
+    new = Workspace(tmp_path / "next")
+    base.prune(edits, new)
+    new.map_again(RunContext(TINY_OPTIONS), align_to=base, touched=frozenset({moved.image_id}))
+    after = new.scene()
     assert not after.camera(moved.image_id).registered
     kept = [c for c in after.cameras if c.registered]
-    assert len(kept) >= workspace.stats(tiny_workspace)["num_registered"] - 2
+    assert len(kept) >= base.stats()["num_registered"] - 2
     # aligned to the parent: unmoved cameras stay where they were (5% of the path length)
     before = {c.image_id: c for c in scene.cameras}
     xs = [c.x for c in scene.cameras if c.registered]
@@ -77,9 +78,10 @@ def test_map_again_after_cutting_a_camera_leaves_it_out(tiny_workspace, tmp_path
 
 def test_unknown_image_and_missing_workspace_are_clear_errors(tiny_workspace, tmp_path):
     with pytest.raises(UnknownImage):
-        workspace.preview(tiny_workspace, EditSet([CameraEdit(9999, 0, 0, 0)]))
+        parse_edits({"cameras": [{"image_id": 9999, "x": 0, "y": 0, "yaw_deg": 0}]},
+                    Workspace(tiny_workspace).image_ids())
     with pytest.raises(MissingWorkspace, match="not a workspace"):
-        workspace.preview(tmp_path / "nowhere", EditSet())
+        Workspace(tmp_path / "nowhere").preview(EditSet())
 
 
 @pytest.mark.parametrize(("option", "value"), [("matcher", "vocab"), ("mapper", "hierarchical"),
@@ -92,14 +94,14 @@ def test_unknown_sfm_option_names_the_choices(option, value):
 def test_prune_records_the_links_it_kept_to_connect(tiny_workspace_ro, tmp_path):
     # A camera left where it is, with placement_deg far below any real residual: the placement
     # test alone would cut all its pairs; they are kept and named instead of deleted.
-    scene = workspace.load_scene(tiny_workspace_ro)
+    scene = Workspace(tiny_workspace_ro).scene()
     camera = [c for c in scene.cameras if c.registered][5]
     edits = EditSet([CameraEdit(camera.image_id, camera.x, camera.y, camera.yaw_deg)],
                     rule="default", tolerances={"placement_deg": 0.001})
-    outcome = workspace.prune(tiny_workspace_ro, edits, tmp_path / "next")
-    touching = {p for p in workspace.verified_pairs(tiny_workspace_ro) if camera.image_id in p}
-    assert touching and set(outcome.kept) == touching and not outcome.deleted
+    outcome = Workspace(tiny_workspace_ro).prune(edits, Workspace(tmp_path / "next"))
+    touching = {p for p in Workspace(tiny_workspace_ro).verified_pairs() if camera.image_id in p}
+    assert touching and set(outcome.kept_to_connect) == touching and not outcome.deleted
     assert outcome.components_after == outcome.components_before
-    record = json.loads((tmp_path / "next" / workspace.PRUNING).read_text())
+    record = json.loads(Workspace(tmp_path / "next").pruning_file.read_text())
     assert len(record["kept_to_connect"]) == len(touching)
     assert all(camera.name in pair for pair in record["kept_to_connect"])

@@ -6,9 +6,9 @@ from pathlib import Path
 
 from guided_sfm.actions.context import JobContext, Produced
 from guided_sfm.actions.ids import IdMap
-from guided_sfm.core import workspace as ws
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.errors import MissingWorkspace
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import Version
 from guided_sfm.db.session import session_scope
 
@@ -20,17 +20,17 @@ def run(context: JobContext, work: Path) -> Produced:
         base = session.get(Version, job.base_version_id)
         if base is None:
             raise MissingWorkspace(f"the base version {job.base_version_id} no longer exists")
-        base_dir = context.store.version_dir(base.path)
-        ids = IdMap.load(session, job.project_id, base_dir)
-    edits = parse_edits(ids.edits_body(body), ws.image_ids(base_dir))
+        base_ws = Workspace(context.store.version_dir(base.path))
+        ids = IdMap.load(session, job.project_id, base_ws)
+    edits = parse_edits(ids.edits_body(body), base_ws.image_ids())
     context.progress("prune", 0.0)
-    outcome = ws.prune(base_dir, edits, work)
+    new = Workspace(work)
+    outcome = base_ws.prune(edits, new)
     mapped = None
     if remap:  # warm from the base model unless its guard falls back to a cold re-map
-        mapped = ws.map_again(work, context.images_dir(), context.options(), context.progress,
-                              context.cancel)
+        mapped = new.map_again(context.run(), context.images_dir())
     reasons = ids.pairs_with((pair, outcome.reasons.get(pair, ())) for pair in outcome.deleted)
     deleted = [(a, b, tests) for (a, b), tests in reasons]
     message = (f"edit set {job.params.get('edit_set_id')}: deleted {len(deleted)} pairs"
                + (f"; {mapped.message()}" if mapped else ", not mapped again"))
-    return Produced(work, "apply", message, base.id, ws.stats(work), edits=body, deleted_pairs=deleted)
+    return Produced(work, "apply", message, base.id, new.stats(), edits=body, deleted_pairs=deleted)

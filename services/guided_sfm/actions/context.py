@@ -8,7 +8,7 @@ from typing import Any
 
 from sqlalchemy.orm import Session, sessionmaker
 
-from guided_sfm.core.sfm import CancelToken, SfmOptions
+from guided_sfm.core.sfm import CancelToken, RunContext, SfmOptions
 from guided_sfm.core.types import Progress
 from guided_sfm.db.models import Job
 from guided_sfm.settings import Settings
@@ -30,6 +30,10 @@ class JobContext:
         """The job's SfM options over the defaults, with the configured thread count."""
         chosen = {k: v for k, v in self.job.params.items() if k in SFM_PARAMS and v}
         return SfmOptions(num_threads=self.settings.threads, **chosen)
+
+    def run(self) -> RunContext:
+        """The job's options, progress reports and cancellation, as the core's steps take them."""
+        return RunContext(self.options(), self.progress, self.cancel)
 
     def images_dir(self) -> Path:
         return self.store.images_dir(self.job.project_id)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from guided_sfm.core import exports
 from guided_sfm.core.errors import InvalidInput
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import Version
 from guided_sfm.storage import ArtifactStore
 
@@ -24,7 +25,7 @@ def export(store: ArtifactStore, version: Version, fmt: str) -> tuple[Path, str,
     out = Path(name)
     try:
         writer = exports.export_colmap_zip if fmt == "colmap" else exports.export_ply
-        writer(store.version_dir(version.path), out)
+        writer(Workspace(store.version_dir(version.path)), out)
     except BaseException:
         out.unlink(missing_ok=True)
         raise

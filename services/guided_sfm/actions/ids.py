@@ -6,13 +6,12 @@ out; `pairs`, `pairs_with` and `rows` below are where that happens."""
 from __future__ import annotations
 
 from collections.abc import Iterable
-from pathlib import Path
 from typing import Any, TypeVar
 
 from sqlalchemy.orm import Session
 
-from guided_sfm.core import workspace as ws
 from guided_sfm.core.errors import UnknownImage
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 
 Pair = tuple[int, int]
@@ -27,8 +26,8 @@ class IdMap:
         self.to_colmap = {sql: colmap for colmap, sql in self.to_sql.items()}
 
     @classmethod
-    def load(cls, session: Session, project_id: int, workspace: Path) -> IdMap:
-        return cls(queries.image_ids_by_name(session, project_id), ws.image_ids(workspace))
+    def load(cls, session: Session, project_id: int, workspace: Workspace) -> IdMap:
+        return cls(queries.image_ids_by_name(session, project_id), workspace.image_ids())
 
     def colmap(self, sql_id: int) -> int:
         if sql_id not in self.to_colmap:

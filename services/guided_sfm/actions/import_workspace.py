@@ -12,8 +12,8 @@ from sqlalchemy.orm import Session
 from guided_sfm import jobs
 from guided_sfm.actions import uploads
 from guided_sfm.actions.context import JobContext, NewImage, Produced
-from guided_sfm.core import workspace as ws
 from guided_sfm.core.errors import InvalidInput
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Job, Project
 from guided_sfm.errors import BadUpload, Conflict
@@ -80,14 +80,15 @@ def run(context: JobContext, work: Path) -> Produced:
         images = _extract(upload, work, context.settings.max_upload_bytes)
     finally:
         upload.unlink(missing_ok=True)
-    ws.write_meta(work, {"image_dir": str(context.images_dir()), "imported": True})
-    names = set(ws.image_ids(work))
+    workspace = Workspace(work)
+    workspace.write_meta({"image_dir": str(context.images_dir()), "imported": True})
+    names = set(workspace.image_ids())
     missing = sorted(names - {image.name for image in images})
     if missing:
         raise InvalidInput(f"images/ lacks {len(missing)} images of database.db, e.g. {missing[0]}")
     context.progress("scene", 0.5)
-    ws.write_scene(work)
-    stats = ws.stats(work)
+    workspace.write_scene()
+    stats = workspace.stats()
     message = f"imported a COLMAP workspace: {stats['num_registered']} of {stats['num_images']} registered"
     return Produced(work, "import", message, None, stats, new_images=images, images_from=work / "images")
 

@@ -10,9 +10,9 @@ from sqlalchemy.orm import Session
 
 from guided_sfm import jobs
 from guided_sfm.actions.context import JobContext, Produced
-from guided_sfm.core import workspace as ws
 from guided_sfm.core.errors import InvalidInput
 from guided_sfm.core.sfm import SfmOptions
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Job, Project
 from guided_sfm.db.session import session_scope
@@ -30,9 +30,9 @@ def run(context: JobContext, work: Path) -> Produced:
         count = len(queries.images(session, context.job.project_id))
     if count < 2:
         raise InvalidInput(f"a reconstruction needs at least 2 images; the project has {count}")
-    options = context.options()
-    ws.reconstruct(context.images_dir(), work, options, context.progress, context.cancel)
-    stats = ws.stats(work)
+    run, workspace = context.run(), Workspace(work)
+    workspace.reconstruct(context.images_dir(), run)
+    stats, options = workspace.stats(), run.options
     message = (f"reconstructed {stats['num_registered']} of {stats['num_images']} images "
                f"({options.matcher} matching, {options.mapper} mapping)")
     return Produced(work, "reconstruct", message, context.job.base_version_id, stats)

@@ -5,20 +5,19 @@ from __future__ import annotations
 import json
 import threading
 from collections import OrderedDict
-from pathlib import Path
 from typing import Any
 
 from sqlalchemy.orm import Session
 
 from guided_sfm.actions.ids import IdMap
-from guided_sfm.core import workspace as ws
 from guided_sfm.core.edits import parse_edits
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import ArtifactStore
 
 
-def _workspace(store: ArtifactStore, version: Version) -> Path:
-    return store.version_dir(version.path)
+def _workspace(store: ArtifactStore, version: Version) -> Workspace:
+    return Workspace(store.version_dir(version.path))
 
 
 class _SceneCache:
@@ -48,7 +47,7 @@ scene_json = _SceneCache().get
 def scene(session: Session, store: ArtifactStore, version: Version) -> dict[str, Any]:
     workspace = _workspace(store, version)
     ids = IdMap.load(session, version.project_id, workspace)
-    data = ws.load_scene(workspace).to_dict()
+    data = workspace.scene().to_dict()
     data["cameras"] = ids.rows(data["cameras"])
     return data
 
@@ -57,7 +56,7 @@ def pairs(session: Session, store: ArtifactStore, version: Version, image_id: in
     workspace = _workspace(store, version)
     ids = IdMap.load(session, version.project_id, workspace)
     return [{"image_id1": id1, "image_id2": id2, "num_inliers": inliers}
-            for (id1, id2), inliers in ids.pairs_with(sorted(ws.verified_pairs(workspace).items()))
+            for (id1, id2), inliers in ids.pairs_with(sorted(workspace.verified_pairs().items()))
             if image_id is None or image_id in (id1, id2)]
 
 
@@ -65,13 +64,13 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
     """What applying the edit set would delete; nothing is written."""
     workspace = _workspace(store, base)
     ids = IdMap.load(session, base.project_id, workspace)
-    outcome = ws.preview(workspace, parse_edits(ids.edits_body(row.body), ws.image_ids(workspace)))
+    outcome = workspace.preview(parse_edits(ids.edits_body(row.body), workspace.image_ids()))
     return {
         "pairs_to_delete": ids.pairs(outcome.deleted),
         "components_before": outcome.components_before,
         "components_after": outcome.components_after,
         "removed_by_test": outcome.removed_by_test,
-        "kept_to_connect": ids.pairs(outcome.kept),
+        "kept_to_connect": ids.pairs(outcome.kept_to_connect),
         "reasons": [{"pair": list(pair), "tests": list(tests)}
                     for pair, tests in sorted(ids.pairs_with(outcome.reasons.items()))],
     }
@@ -79,4 +78,5 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
 
 def compare(session: Session, store: ArtifactStore, version: Version, other: Version) -> dict[str, Any]:
     ids = IdMap.load(session, other.project_id, _workspace(store, other))
-    return {"cameras": ids.rows(ws.compare(_workspace(store, version), _workspace(store, other)))}
+    rows = _workspace(store, version).compare(_workspace(store, other))
+    return {"cameras": ids.rows(rows)}

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 from datetime import datetime
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_type_hints
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt, create_model
 
+from guided_sfm.core.types import DEFAULT_RULE, RULES, CameraEdit
 from guided_sfm.db.models import MAX_ID
 
 Role = Literal["viewer", "editor", "owner"]
@@ -125,13 +127,19 @@ class PairOut(Out):
     num_inliers: int
 
 
-class CameraEditIn(In):
-    image_id: DbId
-    x: float
-    y: float
-    yaw_deg: float
-    fov_deg: float | None = Field(default=None, gt=0, lt=180)
-    range: float | None = Field(default=None, gt=0)
+def _shape_of(value_type: type, name: str, **overrides: Any) -> type[In]:
+    """A request model with the fields of a core value type (a dataclass), some types overridden."""
+    hints = get_type_hints(value_type)
+    fields = {f.name: (overrides.get(f.name, hints[f.name]),
+                       ... if f.default is dataclasses.MISSING else f.default)
+              for f in dataclasses.fields(value_type)}
+    return create_model(name, __base__=In, **fields)
+
+
+# Edit sets: the models give the body's shape (types, for OpenAPI); what the values mean (fov and
+# range bounds, known images, the rule, tolerance names) is checked by core.edits.parse_edits when
+# actions.edit_sets saves the body, so a bad value answers 422 naming the field and nothing is stored.
+CameraEditIn = _shape_of(CameraEdit, "CameraEditIn", image_id=DbId)
 
 
 class EditSetIn(In):
@@ -139,7 +147,7 @@ class EditSetIn(In):
     cameras: list[CameraEditIn] = Field(default_factory=list)
     delete_pairs: list[tuple[DbId, DbId]] = Field(default_factory=list)
     flags: list[DbId] = Field(default_factory=list)
-    rule: Literal["default", "paper"] = "default"
+    rule: str = Field(default=DEFAULT_RULE, json_schema_extra={"enum": list(RULES)})
     tolerances: dict[Text, float] = Field(default_factory=dict)
 
 

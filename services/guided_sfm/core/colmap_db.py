@@ -96,28 +96,28 @@ def keypoints(path: Path, image_id: int) -> np.ndarray:
     return _blob(row[2], row[0], row[1], np.float32)[:, :2].astype(float)
 
 
-def copy_without_pairs(source: Path, target: Path, removed: Iterable[PairKey]) -> int:
-    """Write a new database at target: source minus the removed pairs (and descriptors).
+def copy_without_pairs(source: Path, target: Path, deleted: Iterable[PairKey]) -> int:
+    """Write a new database at target: source minus the deleted pairs (and descriptors).
 
-    The source is opened read-only and left untouched. Returns how many pairs were removed.
+    The source is opened read-only and left untouched. Returns how many pairs it deleted.
     """
     if not Path(source).is_file():
         raise MissingWorkspace(f"no COLMAP database at {source}")
     target = Path(target)
     target.unlink(missing_ok=True)
-    pair_ids = [(pycolmap.image_pair_to_pair_id(*pair),) for pair in removed]
+    pair_ids = [(pycolmap.image_pair_to_pair_id(*pair),) for pair in deleted]
     with closing(sqlite3.connect(f"file:{target}", uri=True)) as conn:
         conn.execute("ATTACH DATABASE ? AS src", (f"file:{source}?mode=ro",))
         _copy_tables(conn)
-        conn.execute("CREATE TEMP TABLE removed (pair_id INTEGER PRIMARY KEY)")
-        conn.executemany("INSERT OR IGNORE INTO removed VALUES (?)", pair_ids)
-        deleted = conn.execute(
-            "DELETE FROM main.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM removed)"
+        conn.execute("CREATE TEMP TABLE deleted (pair_id INTEGER PRIMARY KEY)")
+        conn.executemany("INSERT OR IGNORE INTO deleted VALUES (?)", pair_ids)
+        count = conn.execute(
+            "DELETE FROM main.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM deleted)"
         ).rowcount
-        conn.execute("DELETE FROM main.matches WHERE pair_id IN (SELECT pair_id FROM removed)")
+        conn.execute("DELETE FROM main.matches WHERE pair_id IN (SELECT pair_id FROM deleted)")
         conn.commit()
         conn.execute("DETACH DATABASE src")
-    return deleted
+    return count
 
 
 def _copy_tables(conn: sqlite3.Connection) -> None:
@@ -163,39 +163,51 @@ def share_cameras(path: Path) -> int:
     multi-sensor rigs are left alone.
     """
     with closing(sqlite3.connect(path)) as conn:
-        rows = conn.execute("SELECT camera_id, model, width, height, params, prior_focal_length "
-                            "FROM cameras ORDER BY camera_id").fetchall()
-        in_rigs = {sensor for (sensor,) in conn.execute(
-            "SELECT sensor_id FROM rig_sensors WHERE sensor_type = ? UNION "
-            "SELECT ref_sensor_id FROM rigs r WHERE ref_sensor_type = ? AND EXISTS "
-            "(SELECT 1 FROM rig_sensors s WHERE s.rig_id = r.rig_id)", (CAMERA, CAMERA))}
-        kinds: dict[tuple, int] = {}
-        joined: dict[int, int] = {}
-        for camera_id, *kind in rows:
-            if camera_id not in in_rigs:
-                keep = kinds.setdefault(tuple(kind), camera_id)
-                if keep != camera_id:
-                    joined[camera_id] = keep
+        joined = _cameras_to_join(conn)
         if not joined:
             return 0
         rig_of = dict(conn.execute("SELECT ref_sensor_id, rig_id FROM rigs WHERE ref_sensor_type = ?",
                                    (CAMERA,)))
         for gone, keep in joined.items():
-            conn.execute("UPDATE images SET camera_id = ? WHERE camera_id = ?", (keep, gone))
-            conn.execute("UPDATE frame_data SET sensor_id = ? WHERE sensor_id = ? AND sensor_type = ?",
-                         (keep, gone, CAMERA))
-            conn.execute("UPDATE pose_priors SET corr_sensor_id = ? "
-                         "WHERE corr_sensor_id = ? AND corr_sensor_type = ?", (keep, gone, CAMERA))
-            if gone in rig_of and keep in rig_of:
-                conn.execute("UPDATE frames SET rig_id = ? WHERE rig_id = ?", (rig_of[keep], rig_of[gone]))
-                conn.execute("DELETE FROM rigs WHERE rig_id = ?", (rig_of[gone],))
-            elif gone in rig_of:  # the kept camera had no rig yet: this one becomes its rig
-                conn.execute("UPDATE rigs SET ref_sensor_id = ? WHERE rig_id = ?", (keep, rig_of[gone]))
-                rig_of[keep] = rig_of.pop(gone)
-            conn.execute("DELETE FROM cameras WHERE camera_id = ?", (gone,))
+            _join_camera(conn, gone, keep, rig_of)
         _forget_joined_cameras_of_pairs(conn, set(joined))
         conn.commit()
     return len(joined)
+
+
+def _cameras_to_join(conn: sqlite3.Connection) -> dict[int, int]:
+    """Camera id -> the first camera of the same kind (model, size, parameters, prior), for
+    cameras outside multi-sensor rigs."""
+    rows = conn.execute("SELECT camera_id, model, width, height, params, prior_focal_length "
+                        "FROM cameras ORDER BY camera_id").fetchall()
+    in_rigs = {sensor for (sensor,) in conn.execute(
+        "SELECT sensor_id FROM rig_sensors WHERE sensor_type = ? UNION "
+        "SELECT ref_sensor_id FROM rigs r WHERE ref_sensor_type = ? AND EXISTS "
+        "(SELECT 1 FROM rig_sensors s WHERE s.rig_id = r.rig_id)", (CAMERA, CAMERA))}
+    kinds: dict[tuple, int] = {}
+    joined: dict[int, int] = {}
+    for camera_id, *kind in rows:
+        if camera_id not in in_rigs:
+            keep = kinds.setdefault(tuple(kind), camera_id)
+            if keep != camera_id:
+                joined[camera_id] = keep
+    return joined
+
+
+def _join_camera(conn: sqlite3.Connection, gone: int, keep: int, rig_of: dict[int, int]) -> None:
+    """Every row naming camera `gone` names `keep` instead; rig_of (camera -> its rig) follows."""
+    conn.execute("UPDATE images SET camera_id = ? WHERE camera_id = ?", (keep, gone))
+    conn.execute("UPDATE frame_data SET sensor_id = ? WHERE sensor_id = ? AND sensor_type = ?",
+                 (keep, gone, CAMERA))
+    conn.execute("UPDATE pose_priors SET corr_sensor_id = ? "
+                 "WHERE corr_sensor_id = ? AND corr_sensor_type = ?", (keep, gone, CAMERA))
+    if gone in rig_of and keep in rig_of:
+        conn.execute("UPDATE frames SET rig_id = ? WHERE rig_id = ?", (rig_of[keep], rig_of[gone]))
+        conn.execute("DELETE FROM rigs WHERE rig_id = ?", (rig_of[gone],))
+    elif gone in rig_of:  # the kept camera had no rig yet: this one becomes its rig
+        conn.execute("UPDATE rigs SET ref_sensor_id = ? WHERE rig_id = ?", (keep, rig_of[gone]))
+        rig_of[keep] = rig_of.pop(gone)
+    conn.execute("DELETE FROM cameras WHERE camera_id = ?", (gone,))
 
 
 def _forget_joined_cameras_of_pairs(conn: sqlite3.Connection, joined: set[int]) -> None:

@@ -1,7 +1,10 @@
-"""Sparse models: load them largest first, camera poses, and alignment between versions."""
+"""Sparse models: load them largest first, read their camera poses (the one place that asks
+pycolmap for them), and align one version's models to another's."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -10,28 +13,60 @@ import pycolmap
 from guided_sfm.core import geometry, metrics
 
 # Alignment between versions is robust to the cameras a round moved: inliers must agree
-# within this share of the scene extent.
+# within this share of the diagonal of the cameras' bounding box.
 ALIGN_THRESHOLD_SHARE = 0.02
 
 
-def load_models(sparse_dir: Path) -> list[pycolmap.Reconstruction]:
-    """Every model under sparse_dir (0/, 1/, ...), largest (most registered images) first."""
+def load_models_with_dirs(sparse_dir: Path) -> list[tuple[Path, pycolmap.Reconstruction]]:
+    """(folder, model) of every model under sparse_dir (0/, 1/, ...), largest (most registered
+    images) first."""
     dirs = sorted((d for d in Path(sparse_dir).iterdir() if d.name.isdigit()), key=lambda d: int(d.name))
-    models = [pycolmap.Reconstruction(d) for d in dirs]
-    return sorted(models, key=lambda rec: -rec.num_reg_images())
+    return sorted(((d, pycolmap.Reconstruction(d)) for d in dirs), key=lambda m: -m[1].num_reg_images())
 
 
-def camera_poses(model: pycolmap.Reconstruction) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Image name -> (cam_from_world rotation 3x3, camera centre) of every registered image."""
+def load_models(sparse_dir: Path) -> list[pycolmap.Reconstruction]:
+    """Every model under sparse_dir, largest first."""
+    return [model for _, model in load_models_with_dirs(sparse_dir)]
+
+
+@dataclass(frozen=True)
+class ModelPose:
+    """A registered image's pose in its model (model coordinates)."""
+
+    name: str
+    rotation: np.ndarray  # (3, 3) cam_from_world
+    translation: np.ndarray  # (3,) cam_from_world
+    center: np.ndarray  # (3,)
+    qvec: np.ndarray  # (w, x, y, z), world-to-camera
+
+
+def model_poses(model: pycolmap.Reconstruction,
+                image_ids: Iterable[int] | None = None) -> dict[int, ModelPose]:
+    """Pose of every registered image of a model, or of those among image_ids, by image id."""
+    if image_ids is None:
+        images = list(model.images.values())
+    else:
+        images = [model.image(i) for i in image_ids if model.exists_image(i)]
     poses = {}
-    for image_id in model.reg_image_ids():
-        image = model.image(image_id)
-        cam_from_world = image.cam_from_world()
-        poses[image.name] = (cam_from_world.rotation.matrix(), np.asarray(image.projection_center()))
+    for image in images:
+        if image.has_pose:
+            cam_from_world = image.cam_from_world()
+            rotation = cam_from_world.rotation.matrix()
+            translation = np.asarray(cam_from_world.translation, dtype=float)
+            poses[image.image_id] = ModelPose(
+                image.name, rotation, translation, geometry.camera_centers(rotation, translation),
+                geometry.qvec_from_pycolmap(cam_from_world.rotation.quat))
     return poses
 
 
-def _extent(centers: np.ndarray) -> float:
+def camera_poses(model: pycolmap.Reconstruction) -> dict[str, metrics.CameraPose]:
+    """Image name -> (cam_from_world rotation, camera centre) of every registered image."""
+    return {pose.name: (pose.rotation, pose.center) for pose in model_poses(model).values()}
+
+
+def _diagonal(centers: np.ndarray) -> float:
+    """The diagonal of the centres' bounding box (1 where there is none): the scale the
+    alignment threshold is a share of."""
     if len(centers) < 2:
         return 1.0
     return float(np.linalg.norm(centers.max(axis=0) - centers.min(axis=0))) or 1.0
@@ -46,7 +81,7 @@ def similarity_between(source: pycolmap.Reconstruction, target: pycolmap.Reconst
         return None
     src = np.array([src_poses[n][1] for n in common])
     dst = np.array([dst_poses[n][1] for n in common])
-    return metrics.align_similarity(src, dst, threshold=ALIGN_THRESHOLD_SHARE * _extent(dst))
+    return metrics.align_similarity(src, dst, threshold=ALIGN_THRESHOLD_SHARE * _diagonal(dst))
 
 
 def to_sim3d(sim: metrics.Similarity) -> pycolmap.Sim3d:
@@ -82,6 +117,6 @@ def compare_models(before: pycolmap.Reconstruction, after: pycolmap.Reconstructi
         out.append({
             "image_id": image_id,
             "moved": float(np.linalg.norm(center - poses_before[name][1])),
-            "rotated_deg": geometry.rotation_angle_deg(poses_before[name][0], rotation),
+            "rotated_deg": float(geometry.rotation_angles_deg(poses_before[name][0], rotation)),
         })
     return out

@@ -1,4 +1,5 @@
-"""Edit sets as JSON: parse and validate a body (cameras by id or name), and write one back."""
+"""Edit sets as JSON: the one parser of a body (the CLI's file, a REST request, a job's payload),
+which checks every value and names the field at fault, and the writer back to JSON."""
 
 from __future__ import annotations
 
@@ -7,10 +8,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput, UnknownImage
-from guided_sfm.core.tolerances import resolve
-from guided_sfm.core.types import CameraEdit, EditSet, pair_key
-
-RULES = ("default", "paper")
+from guided_sfm.core.rule.tolerances import resolve
+from guided_sfm.core.types import DEFAULT_RULE, RULES, CameraEdit, EditSet, pair_key
 
 
 def _number(value: Any, what: str) -> float:
@@ -19,7 +18,7 @@ def _number(value: Any, what: str) -> float:
     return float(value)
 
 
-def check_frustum(fov_deg: float | None, range_: float | None, what: str) -> None:
+def _check_frustum(fov_deg: float | None, range_: float | None, what: str) -> None:
     """Reject a field of view outside (0, 180) deg or a range that is not positive."""
     if fov_deg is not None and not 0 < fov_deg < 180:
         raise InvalidFrustum(f"{what}: fov_deg must be in (0, 180), got {fov_deg}")
@@ -53,12 +52,13 @@ def _camera(item: Any, ids: Mapping[str, int], known: set[int]) -> CameraEdit:
         raise InvalidInput(f"{what}: missing field {exc.args[0]}") from exc
     fov = None if item.get("fov_deg") is None else _number(item["fov_deg"], f"{what}: fov_deg")
     range_ = None if item.get("range") is None else _number(item["range"], f"{what}: range")
-    check_frustum(fov, range_, what)
+    _check_frustum(fov, range_, what)
     return CameraEdit(image_id, x, y, yaw, fov, range_)
 
 
 def parse_edits(body: Any, ids: Mapping[str, int]) -> EditSet:
-    """Validate an edit-set body; images by COLMAP id or name (ids maps name -> id)."""
+    """The EditSet of a body, every value checked; images by id or name (ids maps name -> id,
+    its ids are the known images). Raises InvalidInput (or UnknownImage) naming the problem."""
     if not isinstance(body, Mapping):
         raise InvalidInput("the edit set must be a JSON object")
     known = set(ids.values())
@@ -73,15 +73,14 @@ def parse_edits(body: Any, ids: Mapping[str, int]) -> EditSet:
         if a == b:
             raise InvalidInput(f"a pair needs two different images, got {item!r}")
         pairs.append(pair_key(a, b))
-    rule = body.get("rule") or "default"
+    rule = body.get("rule") or DEFAULT_RULE
     if rule not in RULES:
         raise InvalidInput(f"unknown rule {rule!r}; choose one of {RULES}")
     tolerances = body.get("tolerances") or {}
     if not isinstance(tolerances, Mapping):
         raise InvalidInput("tolerances must be an object of numbers")
-    checked = {str(k): _number(v, f"tolerance {k}") for k, v in tolerances.items()}
-    resolve(checked)
-    return EditSet(cameras, sorted(set(pairs)), rule, checked)
+    resolve(tolerances)  # names each bad one
+    return EditSet(cameras, sorted(set(pairs)), rule, {str(k): float(v) for k, v in tolerances.items()})
 
 
 def edits_to_json(edits: EditSet) -> dict[str, Any]:

@@ -8,10 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
-from guided_sfm.core import colmap_db, colmap_model, metrics, workspace
+from guided_sfm.core import colmap_model, metrics
 from guided_sfm.core.errors import EmptyModel
 from guided_sfm.core.truth import Truth, false_pairs, load_truth
 from guided_sfm.core.types import pair_key
+from guided_sfm.core.workspace import Workspace
 
 
 @dataclass(frozen=True)
@@ -32,19 +33,19 @@ class CameraStatus:
         return sorted(set(self.errors) - set(self.wrong))
 
 
-def camera_status(ws: Path, truth: Truth, reference: list[str] | None = None) -> CameraStatus:
+def camera_status(ws: Workspace, truth: Truth, reference: list[str] | None = None) -> CameraStatus:
     """Align the largest model to the truth on the reference cameras and measure every camera."""
-    models = workspace.load_models(ws)
+    models = ws.load_models()
     if not models:
-        raise EmptyModel(f"{ws} has no sparse model to evaluate")
+        raise EmptyModel(f"{ws.root} has no sparse model to evaluate")
     poses = {n: p for n, p in colmap_model.camera_poses(models[0]).items() if n in truth.cameras}
     names = sorted(poses) if reference is None else sorted(set(reference) & set(poses))
     if len(names) < 3:
-        raise EmptyModel(f"{ws}: fewer than 3 reference cameras to align with the truth")
+        raise EmptyModel(f"{ws.root}: fewer than 3 reference cameras to align with the truth")
     sim = metrics.align_similarity(np.array([poses[n][1] for n in names]),
                                    np.array([truth.cameras[n].center for n in names]))
     true_poses = {n: (c.rotation, c.center) for n, c in truth.cameras.items()}
-    all_names = set(colmap_db.image_names(workspace.require(ws)).values())
+    all_names = set(ws.image_names().values())
     return CameraStatus(metrics.camera_errors(poses, true_poses, sim),
                         sorted(all_names - set(poses)), len(models), sim)
 
@@ -59,22 +60,21 @@ def target_errors(status: CameraStatus, targets: list[str]) -> dict[str, float |
             "rotation_mae_deg": float(np.mean(degrees))}
 
 
-def pruning_report(ws: Path, parent: Path, truth: Truth) -> dict | None:
+def pruning_report(ws: Workspace, parent: Workspace, truth: Truth) -> dict | None:
     """Precision/recall/F1 of the pairs a prune deleted against the parent's false pairs."""
-    record_file = Path(ws) / workspace.PRUNING
-    if not record_file.is_file() or truth.depth_dir is None:
+    if not ws.pruning_file.is_file() or truth.depth_dir is None:
         return None
-    ids = workspace.image_ids(parent)
-    named = json.loads(record_file.read_text())["deleted_pairs"]
+    ids = parent.image_ids()
+    named = json.loads(ws.pruning_file.read_text())["deleted_pairs"]
     deleted = {pair_key(ids[a], ids[b]) for a, b in named}
-    false = false_pairs(workspace.require(parent), truth)
+    false = false_pairs(parent.require(), truth)
     precision, recall, f1 = metrics.pruning_scores(deleted, false)
     return {"deleted": len(deleted), "false_pairs": len(false),
             "true_deleted": len(deleted & false), "precision": precision, "recall": recall,
             "f1": f1}
 
 
-def evaluate_workspace(ws: Path, truth_file: Path, reference_from: Path | None = None,
+def evaluate_workspace(ws: Workspace, truth_file: Path, reference_from: Workspace | None = None,
                        before_reference: list[str] | None = None) -> dict:
     """The design's figures for a workspace; with reference_from, relative to that workspace.
 
@@ -100,7 +100,7 @@ def evaluate_workspace(ws: Path, truth_file: Path, reference_from: Path | None =
         report.update({"num_targets": len(targets), "num_fixed": len(fixed), "fixed": fixed,
                        "still_wrong": sorted(set(before.wrong) - set(fixed)),
                        "newly_wrong": sorted(set(before.right) & set(status.wrong))})
-    parent = Path(reference_from or workspace.read_meta(ws).get("parent", ""))
-    if parent != Path("") and (parent / workspace.DATABASE).is_file():
+    parent = reference_from or Workspace(ws.read_meta().get("parent", ""))
+    if parent.root != Path("") and parent.database.is_file():
         report["pruning"] = pruning_report(ws, parent, truth)
     return report

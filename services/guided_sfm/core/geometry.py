@@ -1,5 +1,7 @@
-"""Rotation and camera helpers in COLMAP's convention: x_cam = R_cam_from_world @ x_world + t.
+"""The core's shared maths, in COLMAP's convention: x_cam = R_cam_from_world @ x_world + t.
 
+Rotations and camera centres (batched over leading axes where the pruning rules need it), yaw in
+the ground frame, and the rules' two small formulas: the median per segment and the yaw slack.
 Camera axes: x right, y down, z forward. Quaternions here are (w, x, y, z); pycolmap's
 `Rotation3d.quat` is (x, y, z, w), use `qvec_from_pycolmap` to convert.
 """
@@ -45,9 +47,19 @@ def qvec_from_pycolmap(xyzw) -> np.ndarray:
     return q if q[0] >= 0 else -q
 
 
-def camera_center(cam_from_world_rotation: np.ndarray, cam_from_world_translation) -> np.ndarray:
-    """Camera centre in world coordinates: -R^T t."""
-    return -np.asarray(cam_from_world_rotation).T @ np.asarray(cam_from_world_translation, float)
+def camera_centers(cam_from_world_rotation: np.ndarray, cam_from_world_translation) -> np.ndarray:
+    """Camera centre(s) in world coordinates, -R^T t: (3, 3) and (3,) give (3,), (N, 3, 3) and
+    (N, 3) give (N, 3)."""
+    return -np.einsum("...ji,...j->...i", np.asarray(cam_from_world_rotation, dtype=float),
+                      np.asarray(cam_from_world_translation, dtype=float))
+
+
+def rotations_about(axis: np.ndarray, angles_rad: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) rotations by each angle (right-handed) about one unit axis (Rodrigues)."""
+    n = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    cross = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
+    cos, sin = np.cos(angles_rad)[:, None, None], np.sin(angles_rad)[:, None, None]
+    return cos * np.eye(3) + sin * cross + (1 - cos) * np.outer(n, n)
 
 
 def viewing_direction(cam_from_world_rotation: np.ndarray) -> np.ndarray:
@@ -73,13 +85,32 @@ def yaw_in_frame(direction: np.ndarray, frame: GroundFrame):
     return wrap_deg(np.degrees(np.arctan2(d @ frame.y_axis, d @ frame.x_axis)))
 
 
-def rotation_angle_deg(rotation_a: np.ndarray, rotation_b: np.ndarray) -> float:
-    """Angle in degrees of the rotation taking a to b (angle of a^T b)."""
-    relative = np.asarray(rotation_a, float).T @ np.asarray(rotation_b, float)
-    cos = np.clip((np.trace(relative) - 1.0) / 2.0, -1.0, 1.0)
-    return float(np.degrees(np.arccos(cos)))
+def rotation_angles_deg(rotation_a: np.ndarray, rotation_b: np.ndarray) -> np.ndarray:
+    """Angle (deg) of the rotation taking a to b (of a^T b), over the leading axes (broadcast)."""
+    trace = np.einsum("...ij,...ij->...", rotation_a, rotation_b)  # trace(a^T b)
+    return np.degrees(np.arccos(np.clip((trace - 1) / 2, -1.0, 1.0)))
 
 
 def horizontal_fov_deg(focal_px: float, width_px: float) -> float:
     """Horizontal field of view in degrees of a pinhole camera: 2 atan(width / (2 f))."""
     return float(np.degrees(2.0 * np.arctan(width_px / (2.0 * focal_px))))
+
+
+def segment_median(values: np.ndarray, segments: np.ndarray, count: int) -> np.ndarray:
+    """Median of values in [0, 360) per segment id in [0, count); NaN for empty segments."""
+    # One sort of segment * 512 + value orders by segment, then value: cheaper than a lexsort.
+    sizes = np.bincount(segments, minlength=count)
+    ordered = np.sort(segments * 512.0 + values) - np.repeat(np.arange(count), sizes) * 512.0
+    starts = np.cumsum(sizes) - sizes
+    low = starts + np.maximum(sizes - 1, 0) // 2
+    high = np.minimum(starts + sizes // 2, max(len(ordered) - 1, 0))
+    medians = np.full(count, np.nan)
+    filled = sizes > 0
+    medians[filled] = (ordered[low[filled]] + ordered[high[filled]]) / 2
+    return medians
+
+
+def yaw_slack_deg(base_deg: float, per_member_deg: float, moved_members: np.ndarray) -> np.ndarray:
+    """The yaw error (deg) a pair's test allows: base with one moved member, plus per_member for
+    each further one (each placement brings its own yaw error)."""
+    return base_deg + per_member_deg * np.maximum(moved_members - 1, 0)

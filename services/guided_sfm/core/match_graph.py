@@ -25,13 +25,13 @@ class _UnionFind:
             self.parent[max(root_a, root_b)] = min(root_a, root_b)
 
 
-def components(pairs: Iterable[PairKey], removed: Iterable[PairKey] = ()) -> list[set[int]]:
-    """Components (sets of image ids) after removing pairs, over images paired before removal."""
+def components(pairs: Iterable[PairKey], deleted: Iterable[PairKey] = ()) -> list[set[int]]:
+    """Components (sets of image ids) after deleting pairs, over images paired before."""
     pairs = [pair_key(a, b) for a, b in pairs]
-    removed_keys = {pair_key(a, b) for a, b in removed}
+    deleted_keys = {pair_key(a, b) for a, b in deleted}
     forest = _UnionFind(image_id for pair in pairs for image_id in pair)
     for a, b in pairs:
-        if (a, b) not in removed_keys:
+        if (a, b) not in deleted_keys:
             forest.union(a, b)
     groups: dict[int, set[int]] = {}
     for node in forest.parent:
@@ -39,6 +39,6 @@ def components(pairs: Iterable[PairKey], removed: Iterable[PairKey] = ()) -> lis
     return sorted(groups.values(), key=lambda group: (-len(group), min(group)))
 
 
-def count_components(pairs: Iterable[PairKey], removed: Iterable[PairKey] = ()) -> int:
-    """Number of components after removing pairs; images left with no pair count as one each."""
-    return len(components(pairs, removed))
+def count_components(pairs: Iterable[PairKey], deleted: Iterable[PairKey] = ()) -> int:
+    """Number of components after deleting pairs; images left with no pair count as one each."""
+    return len(components(pairs, deleted))

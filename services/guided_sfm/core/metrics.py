@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from guided_sfm.core.errors import InvalidInput
+from guided_sfm.core.geometry import rotation_angles_deg
 from guided_sfm.core.types import PairKey
 
 ALIGN_THRESHOLD_M = 0.15
@@ -130,11 +131,10 @@ def camera_errors(est: Mapping[str, CameraPose], truth: Mapping[str, CameraPose]
     for name in sorted(set(est) & set(truth)):
         rotation_est, center_est = est[name]
         rotation_gt, center_gt = truth[name]
-        relative = np.asarray(rotation_gt).T @ sim.apply_rotation(rotation_est)
-        cos = np.clip((np.trace(relative) - 1.0) / 2.0, -1.0, 1.0)
         errors[name] = CameraError(
             center=float(np.linalg.norm(sim.apply(center_est) - np.asarray(center_gt))),
-            rotation_deg=float(np.degrees(np.arccos(cos))),
+            rotation_deg=float(rotation_angles_deg(np.asarray(rotation_gt, dtype=float),
+                                                   sim.apply_rotation(rotation_est))),
         )
     return errors
 

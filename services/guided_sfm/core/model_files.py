@@ -58,3 +58,14 @@ def read_points(model_dir: Path) -> tuple[np.ndarray, np.ndarray]:
     xyz = raw[starts[:, None] + 8 + np.arange(24)].copy().view("<f8").reshape(-1, 3)
     order = np.argsort(ids)
     return ids[order], xyz[order]
+
+
+def points_of(point_ids: np.ndarray, ids: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+    """(N, 3) xyz of each point id (read_points' sorted ids and xyz); NaN where there is none."""
+    out = np.full((len(point_ids), 3), np.nan)
+    if len(ids) == 0:
+        return out
+    rows = np.minimum(np.searchsorted(ids, point_ids), len(ids) - 1)
+    found = ids[rows] == point_ids  # NO_POINT matches no stored point
+    out[found] = xyz[rows[found]]
+    return out

@@ -1,5 +1,5 @@
-"""Warm re-mapping: continue from the previous model without the edited cameras, guarded by a
-cold re-map when the warm result looks worse than where it started."""
+"""Warm re-mapping: continue from the previous model without the touched images (those the round
+edited), guarded by a cold re-map when the warm result looks worse than where it started."""
 
 from __future__ import annotations
 
@@ -12,10 +12,9 @@ import pycolmap
 
 from guided_sfm.core import sfm
 from guided_sfm.core.errors import EmptyModel
-from guided_sfm.core.sfm import CancelToken, SfmOptions
-from guided_sfm.core.types import Progress, no_progress
+from guided_sfm.core.sfm import RunContext
 
-# Keeping the untouched cameras fixed is what makes a warm start fast; when many cameras move,
+# Keeping the untouched cameras fixed is what makes a warm start fast; when many are touched,
 # the rest were likely bent by the same false matches, so they are refined too.
 FIX_EXISTING_SHARE = 0.1
 # The warm result is rejected when its mean reprojection error grows beyond both of these.
@@ -65,28 +64,35 @@ def warm_result_problem(base: pycolmap.Reconstruction, models: list[pycolmap.Rec
     return None
 
 
+def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
+              touched: set[int], run: RunContext) -> tuple[list | None, str | None]:
+    """(models, why they are worse than the base or None) of a map from base_models[0] without
+    the touched images; (None, why) when it registered nothing."""
+    base = base_models[0]
+    fix = len(touched) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
+    with tempfile.TemporaryDirectory() as tmp:
+        without_images(base, touched).write_binary(tmp)
+        try:
+            warm = sfm.map_database(database, image_dir, sparse_dir, run, input_model=Path(tmp),
+                                    fix_existing=fix)
+        except EmptyModel:
+            return None, "the warm start registered nothing"
+    return warm, warm_result_problem(base, warm, len(base_models))
+
+
 def map_warm_or_cold(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
-                     moved: set[int], options: SfmOptions = SfmOptions(),
-                     progress: Progress = no_progress, cancel: CancelToken | None = None,
+                     touched: set[int], run: RunContext = RunContext(),
                      cold: bool = False) -> tuple[list[pycolmap.Reconstruction], MapReport]:
-    """Map into sparse_dir: warm from base_models[0] unless cold or there is no base."""
+    """Map into sparse_dir: warm from base_models[0] without the touched images (those a round
+    edited) unless cold or there is no base."""
     start = time.perf_counter()
     fallback, warm = None, None
     if not cold and base_models:
-        base = base_models[0]
-        fix = len(moved) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
-        with tempfile.TemporaryDirectory() as tmp:
-            without_images(base, moved).write_binary(tmp)
-            try:
-                warm = sfm.map_database(database, image_dir, sparse_dir, options, progress,
-                                        cancel, input_model=Path(tmp), fix_existing=fix)
-                fallback = warm_result_problem(base, warm, len(base_models))
-            except EmptyModel:
-                fallback = "the warm start registered nothing"
+        warm, fallback = _map_warm(database, image_dir, sparse_dir, base_models, touched, run)
         if fallback is None:
             return warm, _report("warm", None, start, warm)
     try:
-        models = sfm.map_database(database, image_dir, sparse_dir, options, progress, cancel)
+        models = sfm.map_database(database, image_dir, sparse_dir, run)
     except EmptyModel:
         if warm is None:
             raise

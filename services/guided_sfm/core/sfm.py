@@ -1,4 +1,5 @@
-"""pycolmap steps: SIFT extraction, matching, mapping; with progress reports and cancellation."""
+"""pycolmap steps: SIFT extraction, matching, mapping; each takes a RunContext (options, progress
+reports, cancellation) from its caller."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import shutil
 import tempfile
 from collections.abc import Sequence
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field, replace
 from itertools import combinations
 from pathlib import Path
 
@@ -103,13 +104,28 @@ class CancelToken:
             raise Cancelled("the job was cancelled")
 
 
-def _token(cancel: CancelToken | None) -> pycolmap.CancellationToken | None:
-    return None if cancel is None else cancel.colmap
+@dataclass(frozen=True)
+class RunContext:
+    """What a long step takes from its caller: the SfM options, where to report progress, and the
+    cancellation token (None: the run cannot be cancelled)."""
 
+    options: SfmOptions = field(default_factory=SfmOptions)
+    progress: Progress = no_progress
+    cancel: CancelToken | None = None
 
-def _check(cancel: CancelToken | None) -> None:
-    if cancel is not None:
-        cancel.check()
+    def check(self) -> None:
+        """Raise Cancelled once the run was cancelled."""
+        if self.cancel is not None:
+            self.cancel.check()
+
+    @property
+    def token(self) -> pycolmap.CancellationToken | None:
+        """The token pycolmap's own loops watch."""
+        return None if self.cancel is None else self.cancel.colmap
+
+    def reporting_to(self, progress: Progress) -> RunContext:
+        """The same run with its progress reports sent to another callback."""
+        return replace(self, progress=progress)
 
 
 @contextmanager
@@ -139,20 +155,15 @@ def _groups_by_size(image_dir: Path, names: Sequence[str]) -> dict[tuple[int, in
     return groups
 
 
-def extract_features(
-    image_dir: Path,
-    database: Path,
-    options: SfmOptions = SfmOptions(),
-    progress: Progress = no_progress,
-    cancel: CancelToken | None = None,
-    image_names: Sequence[str] | None = None,
-) -> None:
+def extract_features(image_dir: Path, database: Path, run: RunContext = RunContext(),
+                     image_names: Sequence[str] | None = None) -> None:
     """SIFT features of every image into the database (images already there are skipped).
 
     Every image gets its own camera here; match_features joins them per kind of image once the
     pairs are verified (colmap_db.share_cameras says why).
     """
     names = list(image_names) if image_names is not None else list_images(image_dir)
+    options = run.options
     extraction = pycolmap.FeatureExtractionOptions()
     extraction.num_threads = options.num_threads
     extraction.use_gpu = False
@@ -164,18 +175,18 @@ def extract_features(
     for size, group in _groups_by_size(image_dir, names).items():
         extraction.sift.max_num_features = options.max_num_features or features_for_size(*size)
         for start in range(0, len(group), step):
-            _check(cancel)
+            run.check()
             chunk = group[start : start + step]
             with _cancellable():
                 pycolmap.extract_features(
                     database, image_dir, image_names=chunk,
                     camera_mode=pycolmap.CameraMode.PER_IMAGE, reader_options=reader,
                     extraction_options=extraction, device=pycolmap.Device.cpu,
-                    cancellation_token=_token(cancel),
+                    cancellation_token=run.token,
                 )
             done += len(chunk)
-            progress("extract", done / len(names))
-    _check(cancel)
+            run.progress("extract", done / len(names))
+    run.check()
 
 
 def _image_ids_in_order(database: Path) -> list[int]:
@@ -193,15 +204,10 @@ def candidate_pairs(image_ids: Sequence[int], matcher: str, overlap: int = 10) -
     return pairs
 
 
-def match_features(
-    database: Path,
-    options: SfmOptions = SfmOptions(),
-    progress: Progress = no_progress,
-    cancel: CancelToken | None = None,
-) -> None:
+def match_features(database: Path, run: RunContext = RunContext()) -> None:
     """Match and geometrically verify the candidate pairs, with progress; then join the
     per-image cameras so the mapper refines one camera per kind of image."""
-    db_names = colmap_db.image_names(database)
+    db_names, options = colmap_db.image_names(database), run.options
     pairs = candidate_pairs(_image_ids_in_order(database), options.matcher,
                             options.sequential_overlap)
     matching = pycolmap.FeatureMatchingOptions()
@@ -213,7 +219,7 @@ def match_features(
         pair_file = Path(tmp) / "pairs.txt"
         done = 0
         for block in _blocks_of_images(pairs):
-            _check(cancel)
+            run.check()
             pair_file.write_text("".join(f"{db_names[a]} {db_names[b]}\n" for a, b in block))
             pairing = pycolmap.ImportedPairingOptions()
             pairing.match_list_path = pair_file
@@ -221,11 +227,11 @@ def match_features(
                 pycolmap.match_image_pairs(
                     database, matching_options=matching, pairing_options=pairing,
                     verification_options=verification, device=pycolmap.Device.cpu,
-                    cancellation_token=_token(cancel),
+                    cancellation_token=run.token,
                 )
             done += len(block)
-            progress("match", done / len(pairs))
-    _check(cancel)
+            run.progress("match", done / len(pairs))
+    run.check()
     colmap_db.share_cameras(database)
 
 
@@ -246,12 +252,20 @@ def _blocks_of_images(pairs: Sequence[tuple[int, int]]) -> list[list[tuple[int, 
     return [groups[key] for key in sorted(groups)]
 
 
-def _incremental_options(options: SfmOptions, image_dir: Path) -> pycolmap.IncrementalPipelineOptions:
+def _incremental_options(options: SfmOptions, image_dir: Path, attempt: int, fix_existing: bool,
+                         warm: bool) -> pycolmap.IncrementalPipelineOptions:
     mapping = pycolmap.IncrementalPipelineOptions()
     mapping.num_threads = options.num_threads
-    mapping.random_seed = options.seed
+    mapping.random_seed = options.seed + attempt
     mapping.image_path = image_dir
     mapping.mapper.abs_pose_min_num_inliers = options.min_registration_inliers
+    mapping.fix_existing_frames = fix_existing
+    if warm:
+        # The start is already a large model: a global BA each time it grows by 10% (COLMAP's
+        # default) refines it again and again; the final global BA still runs. 2x re-mapped
+        # murals 2.2x faster than cold (1.7x at 10%).
+        mapping.ba_global_frames_ratio = WARM_GLOBAL_BA_RATIO
+        mapping.ba_global_points_ratio = WARM_GLOBAL_BA_RATIO
     return mapping
 
 
@@ -259,63 +273,60 @@ def _largest(models: dict) -> int:
     return max((model.num_reg_images() for model in models.values()), default=0)
 
 
-def map_database(
-    database: Path,
-    image_dir: Path,
-    sparse_dir: Path,
-    options: SfmOptions = SfmOptions(),
-    progress: Progress = no_progress,
-    cancel: CancelToken | None = None,
-    input_model: Path | None = None,
-    fix_existing: bool = False,
-) -> list[pycolmap.Reconstruction]:
+def _global_map(database: Path, image_dir: Path, out: str, run: RunContext) -> dict:
+    mapping = pycolmap.GlobalPipelineOptions()
+    mapping.num_threads = run.options.num_threads
+    mapping.random_seed = run.options.seed
+    run.progress("map", 0.0)
+    return pycolmap.global_mapping(database, image_dir, out, mapping)
+
+
+def _incremental_map(database: Path, image_dir: Path, out: str, run: RunContext,
+                     input_model: Path | None, fix_existing: bool, num_images: int) -> dict:
+    """Incremental mapping, from input_model if given; a cold start that registers too little
+    starts again with another seed (COLD_START_ATTEMPTS)."""
+    registered = [0]
+
+    def next_image() -> None:
+        registered[0] += 1
+        run.progress("map", min(0.99, registered[0] / num_images))
+
+    models: dict = {}
+    for attempt in range(1 if input_model else COLD_START_ATTEMPTS):
+        mapping = _incremental_options(run.options, image_dir, attempt, fix_existing,
+                                       warm=input_model is not None)
+        with _cancellable():
+            found = pycolmap.incremental_mapping(
+                database, image_dir, out, mapping, input_path=input_model or "",
+                next_image_callback=next_image, cancellation_token=run.token)
+        run.check()
+        if _largest(found) > _largest(models):
+            models = found
+        if _largest(models) >= COLD_START_SHARE * num_images:
+            break
+        log.warning("A cold start registered %d of %d images; starting again.",
+                    _largest(models), num_images)
+    return models
+
+
+def map_database(database: Path, image_dir: Path, sparse_dir: Path, run: RunContext = RunContext(),
+                 input_model: Path | None = None,
+                 fix_existing: bool = False) -> list[pycolmap.Reconstruction]:
     """Map the database into sparse_dir/0, /1, ... (largest model first); returns the models."""
-    _check(cancel)
+    run.check()
     num_images = max(1, len(colmap_db.image_names(database)))
     with tempfile.TemporaryDirectory() as tmp:
-        if options.mapper == "global":
-            mapping = pycolmap.GlobalPipelineOptions()
-            mapping.num_threads = options.num_threads
-            mapping.random_seed = options.seed
-            progress("map", 0.0)
-            models = pycolmap.global_mapping(database, image_dir, tmp, mapping)
+        if run.options.mapper == "global":
+            models = _global_map(database, image_dir, tmp, run)
         else:
-            registered = [0]
-
-            def next_image() -> None:
-                registered[0] += 1
-                progress("map", min(0.99, registered[0] / num_images))
-
-            models = {}
-            for attempt in range(1 if input_model else COLD_START_ATTEMPTS):
-                mapping = _incremental_options(options, image_dir)
-                mapping.random_seed = options.seed + attempt
-                mapping.fix_existing_frames = fix_existing
-                if input_model:
-                    # The start is already a large model: a global BA each time it grows by
-                    # 10% (COLMAP's default) refines it again and again; the final global BA
-                    # still runs. 2x re-mapped murals 2.2x faster than cold (1.7x at 10%).
-                    mapping.ba_global_frames_ratio = WARM_GLOBAL_BA_RATIO
-                    mapping.ba_global_points_ratio = WARM_GLOBAL_BA_RATIO
-                with _cancellable():
-                    found = pycolmap.incremental_mapping(
-                        database, image_dir, tmp, mapping,
-                        input_path=input_model or "", next_image_callback=next_image,
-                        cancellation_token=_token(cancel),
-                    )
-                _check(cancel)
-                if _largest(found) > _largest(models):
-                    models = found
-                if _largest(models) >= COLD_START_SHARE * num_images:
-                    break
-                log.warning("A cold start registered %d of %d images; starting again.",
-                            _largest(models), num_images)
-    _check(cancel)
+            models = _incremental_map(database, image_dir, tmp, run, input_model, fix_existing,
+                                      num_images)
+    run.check()
     ordered = sorted(models.values(), key=lambda rec: -rec.num_reg_images())
     if not ordered:
         raise EmptyModel("mapping registered no images: too few verified matches")
     write_models(ordered, sparse_dir)
-    progress("map", 1.0)
+    run.progress("map", 1.0)
     log.info("Mapped %d model(s); largest has %d images.", len(ordered),
              ordered[0].num_reg_images())
     return ordered

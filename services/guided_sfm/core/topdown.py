@@ -2,68 +2,29 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import geometry
+from guided_sfm.core import geometry, model_files
+from guided_sfm.core.colmap_model import ModelPose, model_poses
 from guided_sfm.core.errors import EmptyModel
 from guided_sfm.core.ground_plane import ground_frame
 from guided_sfm.core.types import GroundFrame, SceneCamera, TopDownScene
 
 
-@dataclass(frozen=True)
-class ModelPose:
-    """A registered image's pose: cam_from_world rotation/translation, centre (model coords)."""
-
-    rotation: np.ndarray
-    translation: np.ndarray
-    center: np.ndarray
-    qvec: np.ndarray  # (w, x, y, z), world-to-camera
-
-
-def model_poses(reconstruction: pycolmap.Reconstruction) -> dict[int, ModelPose]:
-    """Pose of every registered image of a model, by COLMAP image id."""
-    poses = {}
-    for image_id, image in reconstruction.images.items():
-        if not image.has_pose:
-            continue
-        cam_from_world = image.cam_from_world()
-        rotation = cam_from_world.rotation.matrix()
-        translation = np.asarray(cam_from_world.translation, dtype=float)
-        poses[image_id] = ModelPose(rotation, translation,
-                                    geometry.camera_center(rotation, translation),
-                                    geometry.qvec_from_pycolmap(cam_from_world.rotation.quat))
-    return poses
-
-
-def point_array(reconstruction: pycolmap.Reconstruction) -> tuple[np.ndarray, np.ndarray]:
-    """(ids sorted, (N, 3) xyz) of a model's 3D points, model coordinates."""
-    ids = np.array(sorted(reconstruction.points3D), dtype=np.int64)
-    xyz = np.array([reconstruction.points3D[int(i)].xyz for i in ids], dtype=float).reshape(-1, 3)
-    return ids, xyz
-
-
-def camera_depths(reconstruction: pycolmap.Reconstruction, image_id: int, pose: ModelPose,
-                  point_ids: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-    """Depths (along the optical axis, model units) of the 3D points an image observes, > 0 only."""
-    observed = np.array([p.point3D_id for p in
-                         reconstruction.images[image_id].get_observation_points2D()], np.int64)
-    rows = np.searchsorted(point_ids, observed)
-    rows = rows[(rows < len(point_ids)) & (point_ids[np.minimum(rows, len(point_ids) - 1)]
-                                           == observed)]
-    depths = xyz[rows] @ pose.rotation[2] + pose.translation[2]
-    return depths[depths > 0]
-
-
-def camera_ranges(reconstruction: pycolmap.Reconstruction, poses: dict[int, ModelPose],
-                  points: tuple[np.ndarray, np.ndarray] | None = None) -> dict[int, float | None]:
-    """Median observed depth per registered image; None for an image that observes no point."""
-    point_ids, xyz = point_array(reconstruction) if points is None else points
+def camera_ranges(model_dir: Path, poses: dict[int, ModelPose],
+                  points: tuple[np.ndarray, np.ndarray]) -> dict[int, float | None]:
+    """Median depth (along the optical axis, model units) of the 3D points each registered image
+    of the model at model_dir observes; None for an image that observes none in front of it.
+    points: that model's read_points."""
+    observations = model_files.read_observations(model_dir, poses)
     ranges = {}
     for image_id, pose in poses.items():
-        depths = camera_depths(reconstruction, image_id, pose, point_ids, xyz)
+        xyz = model_files.points_of(observations[image_id][1], *points)
+        depths = xyz @ pose.rotation[2] + pose.translation[2]
+        depths = depths[depths > 0]  # NaN (no point) is not
         ranges[image_id] = float(np.median(depths)) if len(depths) else None
     return ranges
 
@@ -74,9 +35,10 @@ def _fill_ranges(ranges: dict[int, float | None],
     if known:
         fallback = float(np.median(known))
     else:
-        # No camera sees a point: the spread of the cameras is the only scale there is.
-        extent = np.ptp(centers, axis=0).max() if len(centers) else 0.0
-        fallback = float(extent) if extent > 0 else 1.0
+        # No camera sees a point: the spread of the cameras (the longest side of their bounding
+        # box) is the only scale there is.
+        longest_side = np.ptp(centers, axis=0).max() if len(centers) else 0.0
+        fallback = float(longest_side) if longest_side > 0 else 1.0
     return {k: (fallback if r is None else r) for k, r in ranges.items()}, fallback
 
 
@@ -123,18 +85,18 @@ def _camera(image_id, name, seq, model, pose, frame, fov, range_) -> SceneCamera
                        tuple(float(v) for v in pose.qvec))
 
 
-def build_scene(reconstructions: list[pycolmap.Reconstruction], images: list[tuple[int, str]],
-                fov_by_image: dict[int, float] | None = None, max_points: int = 20000,
-                seed: int = 0) -> TopDownScene:
-    """Top-down scene of the largest model (first): frame, cameras by name order, 2D points."""
+def build_scene(reconstructions: list[pycolmap.Reconstruction], largest_dir: Path,
+                images: list[tuple[int, str]], fov_by_image: dict[int, float] | None = None,
+                max_points: int = 20000, seed: int = 0) -> TopDownScene:
+    """Top-down scene of the largest model (first; its files at largest_dir): frame, cameras by
+    name order, 2D points."""
     if not reconstructions or reconstructions[0].num_reg_images() == 0:
         raise EmptyModel("no sparse model with registered images to build a scene from")
-    largest = reconstructions[0]
     ordered = sorted(images, key=lambda item: (item[1], item[0]))
-    poses = model_poses(largest)
-    points = point_array(largest)
+    poses = model_poses(reconstructions[0])
+    points = model_files.read_points(largest_dir)  # numpy, not one pycolmap object per point
     frame = _frame(points[1], poses, [i for i, _ in ordered], seed)
-    ranges, scene_range = _fill_ranges(camera_ranges(largest, poses, points),
+    ranges, scene_range = _fill_ranges(camera_ranges(largest_dir, poses, points),
                                        np.array([p.center for p in poses.values()]))
     # Refined intrinsics of a model beat the database's prior focal length.
     fovs = dict(fov_by_image or {}) | _fovs(reconstructions)
@@ -148,3 +110,12 @@ def build_scene(reconstructions: list[pycolmap.Reconstruction], images: list[tup
     models = [{"index": i, "num_images": int(r.num_reg_images())}
               for i, r in enumerate(reconstructions)]
     return TopDownScene(frame, cameras, points_xy, models)
+
+
+def scene_extent(scene: TopDownScene) -> float:
+    """The scene extent of design.md: the largest distance between two registered camera
+    centres (model units); 1 with fewer than two."""
+    centers = np.array([c.center for c in scene.cameras if c.center is not None])
+    if len(centers) < 2:
+        return 1.0
+    return float(np.max(np.linalg.norm(centers[:, None] - centers[None], axis=2)))

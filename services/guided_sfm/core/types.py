@@ -15,6 +15,11 @@ Progress = Callable[[str, float], None]
 """progress(stage, fraction in [0, 1]) reported by long steps."""
 
 
+DEFAULT_RULE, PAPER_RULE = "default", "paper"
+RULES = (DEFAULT_RULE, PAPER_RULE)
+"""An edit set's `rule`: the product's default rule, or the paper's triangle test alone."""
+
+
 def pair_key(a: int, b: int) -> PairKey:
     """The canonical (sorted) key of an image pair."""
     return (a, b) if a < b else (b, a)
@@ -99,7 +104,8 @@ class TopDownScene:
 
 @dataclass(frozen=True)
 class CameraEdit:
-    """A user's placement of one camera in the scene's 2D frame; fov/range None = keep the scene's."""
+    """A placement: the user's 2D pose for one camera in the scene's frame (frame units, yaw in
+    degrees); fov/range None = keep the scene's."""
 
     image_id: int
     x: float
@@ -111,22 +117,25 @@ class CameraEdit:
 
 @dataclass(frozen=True)
 class EditSet:
-    """What a user asks of one correction round."""
+    """What a user asks of one correction round. core.edits.parse_edits makes one from a body and
+    checks every value; the core trusts it (each camera once, known images, a rule of RULES,
+    tolerances by name)."""
 
     cameras: list[CameraEdit] = field(default_factory=list)
     delete_pairs: list[PairKey] = field(default_factory=list)
-    rule: str = "paper"
-    tolerances: dict[str, float] = field(default_factory=dict)
+    rule: str = DEFAULT_RULE
+    tolerances: dict[str, float] = field(default_factory=dict)  # overrides of Tolerances()
 
 
 @dataclass(frozen=True)
 class PruneResult:
-    """Pairs a rule deletes, with the tests that removed each one."""
+    """Pairs a rule deletes, with the reasons for each: the tests that removed it, and "manual"
+    for the user's own deletions."""
 
     deleted: list[PairKey]
     reasons: dict[PairKey, tuple[str, ...]]
-    # pairs the match-placement test alone cut, kept because cutting them splits the match graph
-    kept: list[PairKey]
+    # pairs the match-placement test alone removed, kept because deleting them splits the match graph
+    kept_to_connect: list[PairKey]
 
     @property
     def removed_by_test(self) -> dict[str, int]:

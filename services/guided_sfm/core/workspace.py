@@ -1,4 +1,6 @@
-"""COLMAP-shaped workspaces: reconstruct, scene, prune into a new workspace, map again, export.
+"""COLMAP-shaped workspaces (cf. OpenSfM's DataSet): one object owns a folder's layout, reads and
+writes its files, and runs the steps on it: reconstruct, preview and prune an edit set into a new
+workspace, map again.
 
 A workspace holds `database.db`, `sparse/0/` (largest model), `sparse/1/`, ..., `scene.json`
 (the top-down scene), `workspace.json` (where its images are, options, parent) and, when it
@@ -12,22 +14,15 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pycolmap
 
-from guided_sfm.core import colmap_db, colmap_model, evidence, match_graph, pruning, remap, sfm, topdown
+from guided_sfm.core import colmap_db, colmap_model, match_graph, remap, sfm, topdown
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
-from guided_sfm.core.evidence import Evidence
-from guided_sfm.core.sfm import CancelToken, SfmOptions
-from guided_sfm.core.types import (
-    EditSet,
-    PairKey,
-    Progress,
-    PruneResult,
-    TopDownScene,
-    no_progress,
-)
+from guided_sfm.core.rule import driver, evidence
+from guided_sfm.core.rule.evidence import Evidence
+from guided_sfm.core.sfm import RunContext
+from guided_sfm.core.types import DEFAULT_RULE, EditSet, PairKey, Progress, PruneResult, TopDownScene
 
 DATABASE, SPARSE, SCENE, META = "database.db", "sparse", "scene.json", "workspace.json"
 EDITS, PRUNING = "edits.json", "pruning.json"
@@ -43,31 +38,6 @@ class PruneOutcome(PruneResult):
     components_after: int
 
 
-def require(workspace: Path) -> Path:
-    """The workspace's database path, or a clear error when it is not a workspace."""
-    database = Path(workspace) / DATABASE
-    if not database.is_file():
-        raise MissingWorkspace(f"{workspace} is not a workspace (no {DATABASE})")
-    return database
-
-
-def read_meta(workspace: Path) -> dict:
-    path = Path(workspace) / META
-    return json.loads(path.read_text()) if path.is_file() else {}
-
-
-def write_meta(workspace: Path, meta: dict) -> None:
-    (Path(workspace) / META).write_text(json.dumps(meta, indent=2))
-
-
-def image_dir(workspace: Path) -> Path:
-    """Where the workspace's images are (recorded when it was reconstructed)."""
-    meta = read_meta(workspace)
-    if "image_dir" not in meta:
-        raise MissingWorkspace(f"{workspace} does not record its image directory ({META})")
-    return Path(meta["image_dir"])
-
-
 def spanned(progress: Progress) -> Progress:
     """A progress callback that maps each step's own fraction into the whole job's."""
 
@@ -78,151 +48,199 @@ def spanned(progress: Progress) -> Progress:
     return report
 
 
-def reconstruct(image_dir: Path, workspace: Path, options: SfmOptions = SfmOptions(),
-                progress: Progress = no_progress, cancel: CancelToken | None = None) -> None:
-    """Images -> database, sparse models and scene: the first version of a project."""
-    workspace = Path(workspace)
-    workspace.mkdir(parents=True, exist_ok=True)
-    database = workspace / DATABASE
-    database.unlink(missing_ok=True)
-    shutil.rmtree(workspace / SPARSE, ignore_errors=True)  # a fresh start aligns to nothing
-    image_dir = Path(image_dir).resolve()
-    write_meta(workspace, {"image_dir": str(image_dir), "options": options.to_dict()})
-    report = spanned(progress)
-    sfm.extract_features(image_dir, database, options, report, cancel)
-    sfm.match_features(database, options, report, cancel)
-    colmap_db.finalize(database)
-    map_again(workspace, image_dir, options, report, cancel, cold=True)
+class Workspace:
+    """One workspace folder: the paths of its files, what they hold, and the steps run on it."""
 
+    def __init__(self, root: Path | str) -> None:
+        self.root = Path(root)
+        self.database, self.sparse = self.root / DATABASE, self.root / SPARSE
+        self.scene_file, self.meta_file = self.root / SCENE, self.root / META
+        self.edits_file, self.pruning_file = self.root / EDITS, self.root / PRUNING
 
-def touched_images(workspace: Path) -> set[int]:
-    """Images a round edited (moved cameras, members of manual deletions), from edits.json."""
-    path = Path(workspace) / EDITS
-    if not path.is_file():
-        return set()
-    edits = json.loads(path.read_text())
-    return {c["image_id"] for c in edits.get("cameras", [])} | {
-        i for pair in edits.get("delete_pairs", []) for i in pair}
+    def __repr__(self) -> str:
+        return f"Workspace({str(self.root)!r})"
 
+    def model_dir(self, index: int = 0) -> Path:
+        """sparse/<index>: 0 is the largest model."""
+        return self.sparse / str(index)
 
-def map_again(workspace: Path, image_dir: Path | None = None,
-              options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
-              cancel: CancelToken | None = None, align_to: Path | None = None,
-              moved: frozenset[int] | None = None, cold: bool = False) -> remap.MapReport:
-    """Map the workspace's database again into its sparse/ and rebuild its scene.
+    # -- reading and writing its files ------------------------------------------------------------
 
-    Warm (from the workspace's current model without the moved images) unless `cold` or there
-    is no model. The result is aligned by a similarity on the unmoved cameras to the model it
-    replaces (or to align_to's), so the view does not jump between versions.
-    """
-    database = require(workspace)
-    images = Path(image_dir) if image_dir else globals()["image_dir"](workspace)
-    moved = touched_images(workspace) if moved is None else set(moved)
-    base_models = load_models(workspace)
-    reference = load_models(align_to) if align_to else base_models
-    staging = Path(workspace) / (SPARSE + ".new")
-    try:
-        models, report = remap.map_warm_or_cold(database, images, staging, base_models, moved,
-                                                options, progress, cancel, cold)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
-        raise
-    colmap_db.finalize(database)
-    if reference and colmap_model.align_models(models, reference[0], exclude=frozenset(moved)):
-        for index, model in enumerate(models):
-            model.write_binary(staging / str(index))
-    sparse = Path(workspace) / SPARSE
-    if sparse.exists():
-        shutil.rmtree(sparse)
-    staging.rename(sparse)
-    write_scene(workspace)
-    return report
+    def require(self) -> Path:
+        """The database's path, or a clear error when this is not a workspace."""
+        if not self.database.is_file():
+            raise MissingWorkspace(f"{self.root} is not a workspace (no {DATABASE})")
+        return self.database
 
+    def read_meta(self) -> dict:
+        return json.loads(self.meta_file.read_text()) if self.meta_file.is_file() else {}
 
-def load_models(workspace: Path) -> list[pycolmap.Reconstruction]:
-    """The workspace's sparse models, largest first (empty when it was never mapped)."""
-    sparse = Path(workspace) / SPARSE
-    return colmap_model.load_models(sparse) if sparse.is_dir() else []
+    def write_meta(self, meta: dict) -> None:
+        self.meta_file.write_text(json.dumps(meta, indent=2))
 
+    def image_dir(self) -> Path:
+        """Where the workspace's images are (recorded when it was reconstructed)."""
+        meta = self.read_meta()
+        if "image_dir" not in meta:
+            raise MissingWorkspace(f"{self.root} does not record its image directory ({META})")
+        return Path(meta["image_dir"])
 
-def write_scene(workspace: Path) -> TopDownScene:
-    """Build the top-down scene from the models and database, and store it as scene.json."""
-    database = require(workspace)
-    models = load_models(workspace)
-    if not models:
-        raise EmptyModel(f"{workspace} has no sparse model to build a scene from")
-    names = colmap_db.image_names(database)
-    scene = topdown.build_scene(models, sorted(names.items()), colmap_db.fov_by_image(database))
-    (Path(workspace) / SCENE).write_text(json.dumps(scene.to_dict()))
-    return scene
+    def image_names(self) -> dict[int, str]:
+        """COLMAP image id -> file name."""
+        return colmap_db.image_names(self.require())
 
+    def image_ids(self) -> dict[str, int]:
+        """File name -> COLMAP image id."""
+        return {name: image_id for image_id, name in self.image_names().items()}
 
-def load_scene(workspace: Path) -> TopDownScene:
-    """The workspace's top-down scene (built and stored on first use)."""
-    path = Path(workspace) / SCENE
-    if path.is_file():
-        return TopDownScene.from_dict(json.loads(path.read_text()))
-    return write_scene(workspace)
+    def verified_pairs(self) -> dict[PairKey, int]:
+        """Verified pairs of the workspace's database with their inlier counts."""
+        return colmap_db.verified_pairs(self.require())
 
+    def load_models(self) -> list[pycolmap.Reconstruction]:
+        """The sparse models, largest first (empty when it was never mapped)."""
+        return colmap_model.load_models(self.sparse) if self.sparse.is_dir() else []
 
-def image_ids(workspace: Path) -> dict[str, int]:
-    """File name -> COLMAP image id."""
-    return {name: image_id for image_id, name in colmap_db.image_names(require(workspace)).items()}
+    def build_scene(self) -> TopDownScene:
+        """The top-down scene built from the models and database (nothing written)."""
+        database = self.require()
+        loaded = colmap_model.load_models_with_dirs(self.sparse) if self.sparse.is_dir() else []
+        if not loaded:
+            raise EmptyModel(f"{self.root} has no sparse model to build a scene from")
+        return topdown.build_scene([model for _, model in loaded], loaded[0][0],
+                                   sorted(self.image_names().items()),
+                                   colmap_db.fov_by_image(database))
 
+    def write_scene(self) -> TopDownScene:
+        """Build the top-down scene and store it as scene.json."""
+        scene = self.build_scene()
+        self.scene_file.write_text(json.dumps(scene.to_dict()))
+        return scene
 
-def verified_pairs(workspace: Path) -> dict[PairKey, int]:
-    """Verified pairs of the workspace's database with their inlier counts."""
-    return colmap_db.verified_pairs(require(workspace))
+    def scene(self) -> TopDownScene:
+        """The workspace's top-down scene (built and stored on first use)."""
+        if self.scene_file.is_file():
+            return TopDownScene.from_dict(json.loads(self.scene_file.read_text()))
+        return self.write_scene()
 
+    def touched_images(self) -> set[int]:
+        """Images the round that made this workspace edited (placed cameras and members of manual
+        deletions), from edits.json; empty when no round made it."""
+        if not self.edits_file.is_file():
+            return set()
+        edits = json.loads(self.edits_file.read_text())
+        return {c["image_id"] for c in edits.get("cameras", [])} | {
+            i for pair in edits.get("delete_pairs", []) for i in pair}
 
-def preview(workspace: Path, edits: EditSet) -> PruneOutcome:
-    """What pruning the workspace with these edits would delete; nothing is written."""
-    pairs = verified_pairs(workspace)
-    result = pruning.prune_pairs(load_scene(workspace), edits, pairs, rule_evidence(workspace, edits, pairs))
-    return PruneOutcome(
-        deleted=result.deleted,
-        reasons=result.reasons,
-        kept=result.kept,
-        components_before=match_graph.count_components(pairs),
-        components_after=match_graph.count_components(pairs, result.deleted),
-    )
+    def stats(self) -> dict[str, int]:
+        """Counts the version list shows: images, registered, models, pairs, points."""
+        database = self.require()
+        models = self.load_models()
+        return {
+            "num_images": len(colmap_db.image_names(database)),
+            "num_registered": models[0].num_reg_images() if models else 0,
+            "num_models": len(models),
+            "num_pairs": len(colmap_db.verified_pairs(database)),
+            "num_points": models[0].num_points3D() if models else 0,
+        }
 
+    # -- steps ------------------------------------------------------------------------------------
 
-def rule_evidence(workspace: Path, edits: EditSet, pairs: dict[PairKey, int]) -> Evidence | None:
-    """The default rule's evidence for the pairs of the moved cameras (None for the paper's rule)."""
-    model_dir = Path(workspace) / SPARSE / "0"
-    if edits.rule != "default" or not edits.cameras or not model_dir.is_dir():
-        return None
-    touched = evidence.pairs_touching(pairs, {c.image_id for c in edits.cameras})
-    return evidence.gather(require(workspace), model_dir, touched)
+    def reconstruct(self, image_dir: Path, run: RunContext = RunContext()) -> None:
+        """Images -> database, sparse models and scene: the first version of a project."""
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.database.unlink(missing_ok=True)
+        shutil.rmtree(self.sparse, ignore_errors=True)  # a fresh start aligns to nothing
+        image_dir = Path(image_dir).resolve()
+        self.write_meta({"image_dir": str(image_dir), "options": run.options.to_dict()})
+        run = run.reporting_to(spanned(run.progress))
+        sfm.extract_features(image_dir, self.database, run)
+        sfm.match_features(self.database, run)
+        colmap_db.finalize(self.database)
+        self.map_again(run, image_dir, cold=True)
 
+    def map_again(self, run: RunContext = RunContext(), image_dir: Path | None = None,
+                  align_to: Workspace | None = None, touched: frozenset[int] | None = None,
+                  cold: bool = False) -> remap.MapReport:
+        """Map the database again into sparse/ and rebuild the scene.
 
-def prune(workspace: Path, edits: EditSet, new_workspace: Path) -> PruneOutcome:
-    """Write new_workspace: the pruned database, a copy of the base models, the edits applied."""
-    outcome = preview(workspace, edits)
-    new_workspace = Path(new_workspace)
-    if new_workspace.resolve() == Path(workspace).resolve():
-        raise MissingWorkspace("the new workspace must differ from the base workspace")
-    new_workspace.mkdir(parents=True, exist_ok=True)
-    colmap_db.copy_without_pairs(require(workspace), new_workspace / DATABASE, outcome.deleted)
-    _copy_models(workspace, new_workspace)
-    meta = {**read_meta(workspace), "parent": str(Path(workspace).resolve())}
-    write_meta(new_workspace, meta)
-    (new_workspace / EDITS).write_text(json.dumps(edits_to_json(edits), indent=2))
-    names = colmap_db.image_names(new_workspace / DATABASE)
-    (new_workspace / PRUNING).write_text(json.dumps(pruning_record(outcome, names), indent=2))
-    return outcome
+        Warm (from the current model without the touched images, by default those of
+        edits.json) unless `cold` or there is no model. The result is aligned by a similarity on
+        the other cameras to the model it replaces (or to align_to's), so the view does not jump
+        between versions.
+        """
+        database = self.require()
+        touched = self.touched_images() if touched is None else set(touched)
+        base_models = self.load_models()
+        reference = align_to.load_models() if align_to else base_models
+        staging = self.root / (SPARSE + ".new")
+        try:
+            models, report = remap.map_warm_or_cold(database, image_dir or self.image_dir(), staging,
+                                                    base_models, touched, run, cold)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
+            raise
+        colmap_db.finalize(database)
+        if reference and colmap_model.align_models(models, reference[0], exclude=frozenset(touched)):
+            for index, model in enumerate(models):
+                model.write_binary(staging / str(index))
+        if self.sparse.exists():
+            shutil.rmtree(self.sparse)
+        staging.rename(self.sparse)
+        self.write_scene()
+        return report
 
+    def preview(self, edits: EditSet) -> PruneOutcome:
+        """What pruning this workspace with these edits would delete; nothing is written."""
+        pairs = self.verified_pairs()
+        result = driver.prune_pairs(self.scene(), edits, pairs, self.rule_evidence(edits, pairs))
+        return PruneOutcome(
+            deleted=result.deleted,
+            reasons=result.reasons,
+            kept_to_connect=result.kept_to_connect,
+            components_before=match_graph.count_components(pairs),
+            components_after=match_graph.count_components(pairs, result.deleted),
+        )
 
-def _copy_models(workspace: Path, new_workspace: Path) -> None:
-    for name in (SPARSE, SCENE):
-        source, target = Path(workspace) / name, new_workspace / name
-        if target.is_dir():
-            shutil.rmtree(target)
-        if source.is_dir():
-            shutil.copytree(source, target)
-        elif source.is_file():
-            shutil.copy2(source, target)
+    def rule_evidence(self, edits: EditSet, pairs: dict[PairKey, int]) -> Evidence | None:
+        """The default rule's evidence for the pairs of the placed cameras (None for the paper's
+        rule, which needs none)."""
+        if edits.rule != DEFAULT_RULE or not edits.cameras or not self.model_dir().is_dir():
+            return None
+        touching = evidence.pairs_touching(pairs, {c.image_id for c in edits.cameras})
+        return evidence.gather(self.require(), self.model_dir(), touching)
+
+    def prune(self, edits: EditSet, new: Workspace) -> PruneOutcome:
+        """Write the new workspace: the pruned database, a copy of the base models, the edits
+        applied and the record of what was deleted."""
+        outcome = self.preview(edits)
+        if new.root.resolve() == self.root.resolve():
+            raise MissingWorkspace("the new workspace must differ from the base workspace")
+        new.root.mkdir(parents=True, exist_ok=True)
+        colmap_db.copy_without_pairs(self.require(), new.database, outcome.deleted)
+        self._copy_models_to(new)
+        new.write_meta({**self.read_meta(), "parent": str(self.root.resolve())})
+        new.edits_file.write_text(json.dumps(edits_to_json(edits), indent=2))
+        record = pruning_record(outcome, new.image_names())
+        new.pruning_file.write_text(json.dumps(record, indent=2))
+        return outcome
+
+    def _copy_models_to(self, new: Workspace) -> None:
+        for source, target in ((self.sparse, new.sparse), (self.scene_file, new.scene_file)):
+            if target.is_dir():
+                shutil.rmtree(target)
+            if source.is_dir():
+                shutil.copytree(source, target)
+            elif source.is_file():
+                shutil.copy2(source, target)
+
+    def compare(self, other: Workspace) -> list[dict]:
+        """Per camera of the other's largest model: how far it moved and turned from this one's,
+        after alignment."""
+        models_a, models_b = self.load_models(), other.load_models()
+        if not models_a or not models_b:
+            raise EmptyModel("both versions need a sparse model to be compared")
+        return colmap_model.compare_models(models_a[0], models_b[0])
 
 
 def pruning_record(outcome: PruneOutcome, names: dict[int, str]) -> dict:
@@ -233,34 +251,5 @@ def pruning_record(outcome: PruneOutcome, names: dict[int, str]) -> dict:
         "components_before": outcome.components_before,
         "components_after": outcome.components_after,
         "removed_by_test": outcome.removed_by_test,
-        "kept_to_connect": sorted(sorted((names[a], names[b])) for a, b in outcome.kept),
+        "kept_to_connect": sorted(sorted((names[a], names[b])) for a, b in outcome.kept_to_connect),
     }
-
-
-def stats(workspace: Path) -> dict[str, int]:
-    """Counts the version list shows: images, registered, models, pairs, points."""
-    database = require(workspace)
-    models = load_models(workspace)
-    return {
-        "num_images": len(colmap_db.image_names(database)),
-        "num_registered": models[0].num_reg_images() if models else 0,
-        "num_models": len(models),
-        "num_pairs": len(colmap_db.verified_pairs(database)),
-        "num_points": models[0].num_points3D() if models else 0,
-    }
-
-
-def compare(workspace_a: Path, workspace_b: Path) -> list[dict]:
-    """Per camera of b's largest model: how far it moved and turned from a, after alignment."""
-    models_a, models_b = load_models(workspace_a), load_models(workspace_b)
-    if not models_a or not models_b:
-        raise EmptyModel("both versions need a sparse model to be compared")
-    return colmap_model.compare_models(models_a[0], models_b[0])
-
-
-def scene_extent(scene: TopDownScene) -> float:
-    """Largest distance between two registered camera centres (model units)."""
-    centers = np.array([c.center for c in scene.cameras if c.center is not None])
-    if len(centers) < 2:
-        return 1.0
-    return float(np.max(np.linalg.norm(centers[:, None] - centers[None], axis=2)))

@@ -17,17 +17,17 @@ from guided_sfm.core.errors import InvalidInput
 class Tolerances:
     """The default rule's tolerances; see docs/pruning-rule.md for how each was chosen."""
 
-    # Median angle between a pair's carried 3D points, seen from the partner's placement, and the
+    # Median angle between a pair's carried 3D points, seen from the partner's placed pose, and the
     # partner's matched keypoints; true pairs land within ~10 deg, false ones tens of degrees off.
     placement_deg: float = 25.0
-    # Fewest carried points for a placement verdict; with fewer the frustum test decides.
+    # Fewest carried points for a match-placement verdict; with fewer the frustum test decides.
     placement_min_points: float = 8.0
-    # The relative-rotation test frees the placement's yaw by this much with one member moved...
+    # The relative-rotation test frees a placement's yaw by this much with one member moved...
     rotation_deg: float = 20.0
     # ...and by this much more per further moved member (each placement brings its own yaw error;
-    # the placement test's angle grows by the same).
+    # the match-placement test's angle grows by the same).
     yaw_uncertainty_deg: float = 10.0
-    # Epipolar residual (deg) the best pose in that range may leave before the pair is cut (the
+    # Epipolar residual (deg) the best pose in that range may leave before the pair is removed (the
     # RMS, or where that is above it the median match's under a reweighted fit), and at least
     # this multiple of the RMS the pair's best unconstrained fit leaves.
     epipolar_deg: float = 2.0
@@ -35,11 +35,11 @@ class Tolerances:
     # How far a moved camera may sit from where the user put it, as a share of its range; it
     # bounds the pair's translation direction in the relative-rotation test.
     position_share: float = 0.25
-    # Where the placement re-orients a pair (its relative rotation, yaw free as above, is no longer
+    # Where the placements re-orient a pair (its relative rotation, yaw free as above, is no longer
     # the model's), the pair's own two-view rotation may differ from the nearest placed one this much.
     two_view_deg: float = 15.0
     # Fewest inliers for a rotation verdict. COLMAP verifies a pair with 15; the epipolar stage's
-    # median residual keeps a weak true pair's few stray matches from cutting it, so every verified
+    # median residual keeps a weak true pair's few stray matches from removing it, so every verified
     # pair can be judged (30 left twins' weak look-alike pairs untested, a fold alive).
     rotation_min_inliers: float = 15.0
     range_scale: float = 1.0

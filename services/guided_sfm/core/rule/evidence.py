@@ -1,16 +1,19 @@
-"""What the default rule tests a placement against, read once per preview (models and database
-read-only): per model image its pose, keypoint rays and 3D points; per pair its inlier matches."""
+"""What the default rule tests the placements against, read once per preview (models and database
+read-only): per model image its pose, keypoint rays and 3D points; per pair its inlier matches.
+And the shape of a test's answer (Verdicts)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pycolmap
 
 from guided_sfm.core import colmap_db, model_files
+from guided_sfm.core.colmap_model import model_poses
 from guided_sfm.core.types import PairKey
 
 # A median angle or a 9x9 moment matrix settles long before a pair's hundreds of matches run out;
@@ -43,6 +46,15 @@ class FlatMatches:
     inliers: np.ndarray  # (P,) the pair's verified inliers, before thinning
 
 
+class Verdicts(NamedTuple):
+    """A test's answer per tested pair: removed, judged (False: no verdict here, another test
+    decides), and the measure it judged by (NaN where it gave no verdict)."""
+
+    removed: np.ndarray
+    judged: np.ndarray
+    measure: np.ndarray
+
+
 def _thinned(block: np.ndarray) -> np.ndarray:
     if len(block) <= MAX_MATCHES_PER_PAIR:
         return block
@@ -73,16 +85,6 @@ def _rays(camera: pycolmap.Camera, xy: np.ndarray) -> np.ndarray:
     return rays / np.linalg.norm(rays, axis=1, keepdims=True)
 
 
-def _points_of(point_ids: np.ndarray, ids: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-    out = np.full((len(point_ids), 3), np.nan)
-    if len(ids) == 0:
-        return out
-    rows = np.minimum(np.searchsorted(ids, point_ids), len(ids) - 1)
-    found = ids[rows] == point_ids  # COLMAP's "no point" id matches no stored point
-    out[found] = xyz[rows[found]]
-    return out
-
-
 def pairs_touching(pairs: Iterable[PairKey], image_ids: Iterable[int]) -> list[PairKey]:
     """The pairs with at least one member among image_ids."""
     ids = set(image_ids)
@@ -93,19 +95,17 @@ def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey]) -> Evidenc
     """Evidence for these pairs from the largest model at model_dir and the matching database."""
     pairs = list(pairs)
     model = pycolmap.Reconstruction(model_dir)
-    wanted = {i for pair in pairs for i in pair}
-    image_ids = sorted(i for i in wanted if model.exists_image(i) and model.image(i).has_pose)
+    poses = model_poses(model, {i for pair in pairs for i in pair})
+    image_ids = sorted(poses)
     observations = model_files.read_observations(model_dir, image_ids)
     point_ids, xyz = model_files.read_points(model_dir)
     rotations, translations, rays, points = [], [], [], []
     for image_id in image_ids:
-        image = model.image(image_id)
         xy, observed = observations[image_id]
-        cam_from_world = image.cam_from_world()
-        rotations.append(cam_from_world.rotation.matrix())
-        translations.append(np.asarray(cam_from_world.translation, dtype=float))
-        rays.append(_rays(model.cameras[image.camera_id], xy))
-        points.append(_points_of(observed, point_ids, xyz))
+        rotations.append(poses[image_id].rotation)
+        translations.append(poses[image_id].translation)
+        rays.append(_rays(model.cameras[model.image(image_id).camera_id], xy))
+        points.append(model_files.points_of(observed, point_ids, xyz))
     counts = [len(r) for r in rays]
     return Evidence(
         rows={image_id: row for row, image_id in enumerate(image_ids)},

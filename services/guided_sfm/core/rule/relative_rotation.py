@@ -1,17 +1,18 @@
-"""The relative-rotation test: can the pair's own matches be explained with the placement's pose?
+"""The relative-rotation test: can the pair's own matches be explained by the placed poses?
 
 Cameras circling an object and facing its centre carry their points only a little when moved, so
 the match-placement test cannot see that a pair matched look-alike sides 90 deg apart; the pair's
 relative rotation can. Estimating that rotation and comparing it fails on weak, planar and
 pure-rotation pairs, whose rotation is ill-determined, so both stages ask instead whether the
-placement (its yaw free within the user's uncertainty, tilt from the model's gravity, translation
-within a cone around the placed baseline) can explain the matches; ambiguity never deletes.
+placed relative pose (its yaw free within the user's uncertainty, tilt from the model's gravity,
+translation within a cone around the placed baseline) can explain the matches; ambiguity never
+removes a pair.
 
 1. Epipolar (every pair, vectorised): the RMS algebraic epipolar residual of the inlier rays under
    the best such pose, from one 9x9 moment matrix per pair (for E = [t]x R the residual sum is
    vec(E)^T M vec(E), quadratic in t); a pair above the limit is judged again by its median match
-   under a reweighted fit, so a minority of look-alike matches in a true pair does not cut it.
-2. Two-view (pairs the placement re-orients relative to the model, one at a time): the pair's own
+   under a reweighted fit, so a minority of look-alike matches in a true pair does not remove it.
+2. Two-view (pairs the placements re-orient relative to the model, one at a time): the pair's own
    relative pose, from a homography where one explains the matches (planar or pure rotation; the
    plane's two solutions are told apart by the placed baseline) else from pycolmap's 5-point
    LO-RANSAC, against the nearest placed rotation. Inward-facing orbits need this stage: their
@@ -23,17 +24,18 @@ from __future__ import annotations
 import numpy as np
 import pycolmap
 
-from guided_sfm.core.evidence import Evidence, FlatMatches
-from guided_sfm.core.placement import Placement, rotations_about, segment_median
-from guided_sfm.core.tolerances import Tolerances
+from guided_sfm.core.geometry import rotation_angles_deg, rotations_about, segment_median, yaw_slack_deg
+from guided_sfm.core.rule.evidence import Evidence, FlatMatches, Verdicts
+from guided_sfm.core.rule.motion import Motions
+from guided_sfm.core.rule.tolerances import Tolerances
 
 # A pair whose homography transfers its rays this well is planar or a pure rotation.
 HOMOGRAPHY_FIT_DEG = 0.5
 RANSAC_MAX_ERROR = 4e-3  # ~2 px at a 500 px focal length, on unit rays
 MIN_INLIER_SHARE = 0.7  # of the verified inliers, for the pair's own relative pose to count
 YAW_STEPS = 15  # yaw samples across the allowed range; a residual minimum is wide for a true pair
-RING = 16  # translation directions sampled on the rim of the placement's baseline cone
-# A pair the RMS would cut is judged again: for each candidate rotation its translation is refitted
+RING = 16  # translation directions sampled on the rim of the placed baseline's cone
+# A pair the RMS would remove is judged again: for each candidate rotation its translation is refitted
 # this often, each match weighted 1 / its residual (deg, at least the floor): iteratively
 # reweighted least squares towards the smallest absolute residuals, which strays pull little.
 IRLS_STEPS, IRLS_FLOOR_DEG = 2, 0.05
@@ -108,7 +110,7 @@ def epipolar_rms(moments: np.ndarray, counts: np.ndarray, b_from_a: np.ndarray,
                  baseline: np.ndarray, half_angle: np.ndarray) -> np.ndarray:
     """(P, K) RMS algebraic epipolar residual (~ sine of a ray's angle to its epipolar plane) of
     each pair's matches under K rotations (P, K, 3, 3), each with its best unit translation within
-    half_angle (rad) of the placement's baseline direction (b's frame) or its opposite."""
+    half_angle (rad) of the placed baseline direction (b's frame) or its opposite."""
     basis = (GENERATORS[None, None] @ b_from_a[:, :, None]).reshape(*b_from_a.shape[:2], 3, 9)
     value, _ = cone_minimum(basis @ (moments[:, None] @ np.swapaxes(basis, 2, 3)), baseline,
                             half_angle)
@@ -121,56 +123,55 @@ def best_rms(moments: np.ndarray, counts: np.ndarray) -> np.ndarray:
     return np.sqrt(np.maximum(2.0 * smallest, 0.0) / counts)
 
 
-def yaw_candidates(placement: Placement, rows: np.ndarray, span_deg: np.ndarray) -> np.ndarray:
-    """(P, K, 3, 3) b_from_a of the placement with a's yaw turned across +-span about gravity."""
+def yaw_candidates(motions: Motions, rows: np.ndarray, span_deg: np.ndarray) -> np.ndarray:
+    """(P, K, 3, 3) placed b_from_a with a's yaw turned across +-span about gravity."""
     steps = np.linspace(-1.0, 1.0, YAW_STEPS)
-    turns = rotations_about(placement.up, np.radians(span_deg[:, None] * steps).ravel())
+    turns = rotations_about(motions.up, np.radians(span_deg[:, None] * steps).ravel())
     turns = turns.reshape(len(rows), YAW_STEPS, 3, 3)
-    cam_a, cam_b = placement.rotations[rows[:, 0]], placement.rotations[rows[:, 1]]
+    cam_a, cam_b = motions.cam_rotations[rows[:, 0]], motions.cam_rotations[rows[:, 1]]
     return cam_b[:, None] @ turns @ np.swapaxes(cam_a, 1, 2)[:, None]
 
 
-def baseline_cones(placement: Placement, rows: np.ndarray, tolerances: Tolerances
+def baseline_cones(motions: Motions, rows: np.ndarray, tolerances: Tolerances
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Per pair: the placed baseline direction in b's frame, and how far (rad) it may be off.
 
     Each moved member may sit position_share of its range away from where the user put it.
     """
-    centers = placement.centers
+    centers = motions.centers
     offset = centers[rows[:, 0]] - centers[rows[:, 1]]  # t of b_from_a points from b towards a
     length = np.linalg.norm(offset, axis=1)
-    in_b = np.einsum("pij,pj->pi", placement.rotations[rows[:, 1]], offset)
+    in_b = np.einsum("pij,pj->pi", motions.cam_rotations[rows[:, 1]], offset)
     direction = in_b / np.maximum(length, 1e-12)[:, None]
-    slack = tolerances.position_share * (placement.ranges[rows] * placement.moved[rows]).sum(axis=1)
+    slack = tolerances.position_share * (motions.ranges[rows] * motions.moved[rows]).sum(axis=1)
     return direction, np.arctan2(slack, length)
 
 
-def rotation_test(flat: FlatMatches, placement: Placement, evidence: Evidence,
-                  tolerances: Tolerances, decided: np.ndarray | None = None
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(removed, evaluated, epipolar residual deg near the placement: the RMS, or the median
+def rotation_test(flat: FlatMatches, motions: Motions, evidence: Evidence,
+                  tolerances: Tolerances, decided: np.ndarray | None = None) -> Verdicts:
+    """Verdicts by the epipolar residual (deg) near the placed poses (the RMS, or the median
     where re-judged) per tested pair.
 
-    Pairs marked `decided` (cut by another test) skip the costlier per-pair two-view check.
+    Pairs marked `decided` (removed by another test) skip the costlier per-pair two-view check.
     """
-    evaluated = (flat.inliers >= tolerances.rotation_min_inliers) & (flat.rows >= 0).all(axis=1)
+    judged = (flat.inliers >= tolerances.rotation_min_inliers) & (flat.rows >= 0).all(axis=1)
     residual = np.full(len(flat.counts), np.nan)
     removed = np.zeros(len(flat.counts), dtype=bool)
-    chosen = np.flatnonzero(evaluated)
+    chosen = np.flatnonzero(judged)
     if len(chosen) == 0:
-        return removed, evaluated, residual
-    keep = evaluated[flat.pair]
+        return Verdicts(removed, judged, residual)
+    keep = judged[flat.pair]
     pair = np.searchsorted(chosen, flat.pair[keep])
     rays = [evidence.rays[flat.keypoints[keep, side]] for side in (0, 1)]
     rows = flat.rows[chosen]
-    span = tolerances.rotation_deg + tolerances.yaw_uncertainty_deg * np.maximum(
-        placement.moved[rows].sum(axis=1) - 1, 0)
-    candidates = yaw_candidates(placement, rows, span)
-    cones = baseline_cones(placement, rows, tolerances)
-    cut, residual[chosen] = _epipolar_verdict(rays, pair, flat.counts[chosen], candidates, cones,
+    span = yaw_slack_deg(tolerances.rotation_deg, tolerances.yaw_uncertainty_deg,
+                         motions.moved_members(rows))
+    candidates = yaw_candidates(motions, rows, span)
+    cones = baseline_cones(motions, rows, tolerances)
+    out, residual[chosen] = _epipolar_verdict(rays, pair, flat.counts[chosen], candidates, cones,
                                               tolerances)
     model_rel = evidence.rotations[rows[:, 1]] @ np.swapaxes(evidence.rotations[rows[:, 0]], 1, 2)
-    turned = ~cut & reoriented(model_rel, candidates, span)
+    turned = ~out & reoriented(model_rel, candidates, span)
     if decided is not None:
         turned &= ~decided[chosen]
     bounds = np.searchsorted(pair, np.arange(len(chosen) + 1))
@@ -178,17 +179,17 @@ def rotation_test(flat: FlatMatches, placement: Placement, evidence: Evidence,
         block = slice(bounds[index], bounds[index + 1])
         disagreement = two_view_disagreement(rays[0][block], rays[1][block], candidates[index],
                                              cones[0][index], cones[1][index])
-        cut[index] = disagreement > tolerances.two_view_deg
-    removed[chosen] = cut
-    return removed, evaluated, residual
+        out[index] = disagreement > tolerances.two_view_deg
+    removed[chosen] = out
+    return Verdicts(removed, judged, residual)
 
 
 def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Tolerances
                       ) -> tuple[np.ndarray, np.ndarray]:
-    """(cut, residual deg): no rotation in the yaw range explains the matches (vectorised).
+    """(removed, residual deg): no rotation in the yaw range explains the matches (vectorised).
 
     The residual is the RMS under the best pose; where that is above the limit, the pair is
-    judged again by its median match (robust_residual). A pair stays when the placement explains
+    judged again by its median match (robust_residual). A pair stays when the placed pose explains
     most of its matches, though a minority (look-alikes in a true pair, by design.md's definition
     up to half of them, or rays a slightly wrong model tilt leaves off) pushes the RMS past it.
     """
@@ -233,7 +234,7 @@ def robust_residual(rays, pair, candidates, cones) -> np.ndarray:
 
 def reoriented(model_rel: np.ndarray, candidates: np.ndarray, span_deg: np.ndarray) -> np.ndarray:
     """Pairs whose placed relative rotation, yaw free within the span, is not the model's."""
-    return _angle_deg(model_rel[:, None], candidates).min(axis=1) > span_deg
+    return rotation_angles_deg(model_rel[:, None], candidates).min(axis=1) > span_deg
 
 
 def fit_homography(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
@@ -267,7 +268,7 @@ def plane_disagreement(homography: np.ndarray, candidates: np.ndarray, baseline:
                        half_angle: float) -> float:
     """Degrees by which H = R + t n^T / d fails for the nearest candidate R with t in the cone.
 
-    A plane's homography fits two poses; the placement's translation tells them apart.
+    A plane's homography fits two poses; the placed translation tells them apart.
     """
     rest = homography[None] - candidates
     u, _, _ = np.linalg.svd(rest)
@@ -279,7 +280,7 @@ def plane_disagreement(homography: np.ndarray, candidates: np.ndarray, baseline:
 
 def two_view_disagreement(a: np.ndarray, b: np.ndarray, candidates: np.ndarray,
                           baseline: np.ndarray, half_angle: float) -> float:
-    """Degrees between the pair's own relative pose and the nearest candidate placement; 0 when
+    """Degrees between the pair's own relative pose and the nearest placed candidate; 0 when
     the pair cannot tell (too few RANSAC inliers)."""
     homography, transfer_deg = fit_homography(a, b)
     if transfer_deg <= HOMOGRAPHY_FIT_DEG:  # planar or a pure rotation
@@ -290,9 +291,5 @@ def two_view_disagreement(a: np.ndarray, b: np.ndarray, candidates: np.ndarray,
     found = pycolmap.estimate_relative_pose(a, b, options)
     if found is None or found["num_inliers"] < MIN_INLIER_SHARE * len(a):
         return 0.0
-    return float(_angle_deg(found["cam2_from_cam1"].rotation.matrix()[None], candidates).min())
+    return float(rotation_angles_deg(found["cam2_from_cam1"].rotation.matrix()[None], candidates).min())
 
-
-def _angle_deg(rotation_a: np.ndarray, rotation_b: np.ndarray) -> np.ndarray:
-    cos = (np.einsum("...ij,...ij->...", rotation_a, rotation_b) - 1) / 2
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
