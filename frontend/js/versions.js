@@ -1,11 +1,11 @@
 // Version history: author, time and stats of every version; open one read-only, restore it, or
-// compare it with the version on screen (cameras that moved, drawn as arrows).
+// compare it with the version on screen (cameras that moved, drawn as arrows on the scene).
 import { get, post } from "./api.js";
 import { fitSimilarity } from "./compare.js";
 
 export class VersionsPanel {
-  constructor(root, { store, view, notify, onRestored }, signal) {
-    Object.assign(this, { root, store, view, notify, onRestored });
+  constructor(root, { store, notify, onRestored }, signal) {
+    Object.assign(this, { root, store, notify, onRestored });
     this.list = root.querySelector("#version-list");
     this.summary = root.querySelector("#compare-summary");
     this.clearButton = root.querySelector("#compare-clear");
@@ -110,8 +110,7 @@ export class VersionsPanel {
     const still = common.filter((c) => !moved.includes(c));
     const anchors = still.length >= 2 ? still : common;
     const toScreen = fitSimilarity(anchors.map((c) => [before.get(c.id), [c.x, c.y]]));
-    this.view.arrows = moved.map((c) => ({ from: toScreen(before.get(c.id)), to: [c.x, c.y] }));
-    this.view.requestDraw();
+    this.store.set("arrows", moved.map((c) => ({ from: toScreen(before.get(c.id)), to: [c.x, c.y] })));
     this.summary.dataset.moved = String(moved.length);
     this.summary.textContent = `v${otherId} → v${this.store.version.id}: ${moved.length} of ${common.length} ` +
       "cameras moved (arrows).";
@@ -119,8 +118,7 @@ export class VersionsPanel {
   }
 
   clearCompare() {
-    this.view.arrows = [];
-    this.view.requestDraw();
+    this.store.set("arrows", []);
     this.summary.textContent = "";
     delete this.summary.dataset.moved;
     this.clearButton.hidden = true;
