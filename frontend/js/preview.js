@@ -1,7 +1,10 @@
-// Live preview: match lines of the moved (and, with "show matching", the selected) cameras, the
-// pairs the server's preview would cut in red, an instant triangle-test estimate while it is
-// stale, the counter and the warning when the match graph would split. The lines reach the scene
-// through the store ("lines").
+// The Preview panel: match lines of the moved (and, with "show matching", the selected) cameras,
+// the pairs the server's preview deletes in red, the counter and the warning when the match graph
+// would split. Between a change and the server's answer (previewState "stale") it shows an
+// instant estimate instead, dashed and marked "≈": the paper's triangle test on the moved cameras
+// plus the manual deletions, nothing more. The server's rule ("default" unless the edit set says
+// "paper") also judges the matches themselves, so the two counts may differ; the panel names both.
+// The lines reach the scene through the store ("lines").
 import { frustum, pairKey, splitKey, trianglesIntersect } from "./geometry.js";
 
 const MAX_LINE_CAMERAS = 300; // beyond this many moved cameras only the cut lines are drawn
@@ -65,14 +68,15 @@ export class Preview {
   renderCounter(estimate) {
     const { preview, previewState } = this.store;
     const count = preview?.pairs_to_delete?.length ?? 0;
+    const rule = `the server's "${this.draft.rule}" rule`;
     const c = this.counter;
     c.dataset.state = previewState;
     c.dataset.count = String(count);
     c.dataset.estimate = estimate ? String(estimate.size) : "";
     c.querySelector(".count").textContent = estimate ? `≈${estimate.size}` : String(count);
     c.querySelector(".note").textContent = estimate
-      ? "estimate from the triangles; the server's preview follows the save"
-      : "pairs the rule would delete";
+      ? `instant estimate: the paper's triangle test in the browser; ${rule} answers after the save`
+      : `pairs ${rule} would delete`;
     const split = preview && preview.components_after > preview.components_before;
     this.warning.hidden = !split;
     if (split) {

@@ -134,3 +134,38 @@ def test_read_only_version_and_hover_links(page):
     expect(rows).to_have_count(2)
     assert "head" in rows.nth(0).inner_text() and "on screen" in rows.nth(1).inner_text()
     shot(page, "offline-read-only")
+
+
+def press_in_one_task(page, *keys: tuple[str, bool]) -> dict:
+    """Dispatch key presses on the scene and read the preview counter in the same JS task, before
+    the debounced save can answer: what the counter shows while the server's preview is stale."""
+    return page.evaluate("""keys => {
+        const scene = document.querySelector('#scene');
+        for (const [key, shiftKey] of keys) {
+            scene.dispatchEvent(new KeyboardEvent('keydown', {key, shiftKey, bubbles: true}));
+        }
+        const c = document.querySelector('#cut-counter');
+        return {state: c.dataset.state, estimate: c.dataset.estimate, count: c.dataset.count,
+                shown: c.querySelector('.count').textContent, note: c.querySelector('.note').textContent,
+                red: document.querySelector('#scene').dataset.redLines};
+    }""", [list(k) for k in keys])
+
+
+def test_instant_estimate_is_labelled_as_the_papers_triangle_test(page):
+    """Camera 5 moved 0.4 to the right: its triangle no longer meets camera 3's (2.4 apart, the
+    triangles are 2.31 wide), so the browser's estimate of the paper's test cuts (3, 5); the
+    fake server's rule cuts only beyond 2.5, so its count is 0. Each count says what it is."""
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='5']").click()
+    stale = press_in_one_task(page, ("ArrowRight", True), ("ArrowLeft", False))
+    assert stale["state"] == "stale" and stale["estimate"] == "1" and stale["shown"] == "≈1"
+    assert "estimate" in stale["note"] and "paper's triangle test" in stale["note"]
+    assert 'server\'s "default" rule' in stale["note"] and stale["red"] == "1"
+    shot(page, "offline-estimate")
+    assert math.isclose(next(c for c in saved(page, fake)["cameras"] if c["image_id"] == 5)["x"], 4.4)
+    counter = page.locator("#cut-counter")
+    assert counter.get_attribute("data-count") == "0" and counter.get_attribute("data-estimate") == ""
+    assert page.inner_text("#cut-counter .count") == "0"
+    assert page.inner_text("#cut-counter .note") == 'pairs the server\'s "default" rule would delete'
+    assert page.get_attribute("#scene", "data-red-lines") == "0"
