@@ -4,13 +4,14 @@ a read-only version and hover links. Fast: no server, no reconstruction."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
 from playwright.sync_api import expect
 
 from tests.e2e.conftest import shot
-from tests.e2e.fake_api import ORIGIN, FakeApi
+from tests.e2e.fake_api import ORIGIN, FakeApi, camera
 
 pytestmark = pytest.mark.browser
 
@@ -169,3 +170,49 @@ def test_instant_estimate_is_labelled_as_the_papers_triangle_test(page):
     assert page.inner_text("#cut-counter .count") == "0"
     assert page.inner_text("#cut-counter .note") == 'pairs the server\'s "default" rule would delete'
     assert page.get_attribute("#scene", "data-red-lines") == "0"
+
+
+# Version 1 of a folded run: cameras 2-5 sat on a diagonal; version 2 (the head) put them back in
+# the row. Only camera 1 stayed, so a fit on the unmoved cameras has too few to work with.
+FOLDED = [camera(1, 0.0), camera(2, 1.0, y=1.0), camera(3, 0.5, y=1.5), camera(4, 0.0, y=2.0),
+          camera(5, -0.5, y=2.5), camera(6, None, False)]
+
+
+def compare_with_v1(page, fake: FakeApi) -> dict:
+    open_fake(page, fake)
+    page.locator("#versions-panel summary").click()
+    page.locator("#version-list li[data-version-id='1']").get_by_role("button", name="Compare").click()
+    page.wait_for_selector("#compare-summary[data-moved]")
+    return page.eval_on_selector("#compare-summary", "e => ({...e.dataset, text: e.textContent})")
+
+
+def test_compare_arrows_start_where_the_cameras_were(page):
+    """The server keeps versions in one frame and says which cameras moved: each arrow runs from
+    the camera's place in v1 to its place on screen, as long as the server says it moved."""
+    fake = FakeApi(head=2, older={1: FOLDED})
+    summary = compare_with_v1(page, fake)
+    arrows = {a["id"]: a for a in json.loads(summary["arrows"])}
+    assert sorted(arrows) == [2, 3, 4, 5] and summary["sharedFrame"] == "true"
+    moved = {c["image_id"]: c["moved"] for c in fake.compare(1, 2)}
+    for cam in FOLDED[1:5]:
+        arrow = arrows[cam["image_id"]]
+        assert arrow["from"] == pytest.approx([cam["x"], cam["y"]], abs=1e-9), arrow
+        assert arrow["to"] == pytest.approx([cam["image_id"] - 1.0, 0.0], abs=1e-9)
+        assert math.dist(arrow["from"], arrow["to"]) == pytest.approx(moved[cam["image_id"]], abs=1e-9)
+    assert page.get_attribute("#scene", "data-arrows") == "4"
+    assert "4 of 5 cameras moved (arrows)" in summary["text"]
+    shot(page, "offline-compare-arrows")
+    page.get_by_role("button", name="Clear comparison").click()
+    assert page.get_attribute("#scene", "data-arrows") == "0"
+
+
+def test_compare_with_a_version_in_another_frame_draws_no_arrows(page):
+    """A separate reconstruction is not aligned to earlier versions: v1 is the head turned by 90
+    degrees. The server (aligning the two itself) says only camera 5 moved; the cameras it calls
+    unmoved are far from where v1 has them, so the panel draws no arrows and says why."""
+    turned = [camera(c["image_id"], -c["y"], y=c["x"]) if c["center"] else c for c in FakeApi().cameras]
+    answer = [{"image_id": i, "moved": 1.0 if i == 5 else 0.0, "rotated_deg": 0.0} for i in range(1, 6)]
+    summary = compare_with_v1(page, FakeApi(head=2, older={1: turned}, compare=answer))
+    assert summary["moved"] == "1" and summary["sharedFrame"] == "false"
+    assert json.loads(summary["arrows"]) == [] and page.get_attribute("#scene", "data-arrows") == "0"
+    assert "v1 is in another frame" in summary["text"]
