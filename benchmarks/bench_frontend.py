@@ -111,14 +111,16 @@ window.runBench = async () => {
   const view = new SceneView(document.getElementById("scene"));
   const draft = new Draft();
   const selection = new Selection(store);
-  const editor = new Editor(store, draft, view, selection, () => {});
+  const editor = new Editor(store, draft, selection, () => {}, () => [view.view.cx, view.view.cy]);
   view.setScene(store.cameras, store.points);
+  view.poseOf = (cam) => editor.poseOf(cam);
   view.fit();
   view.draw();
   flush(view);
   const firstRender = performance.now() - t0;
 
-  const preview = new Preview(document.getElementById("preview-panel"), { store, draft, editor, view });
+  const preview = new Preview(document.getElementById("preview-panel"), { store, draft, editor });
+  store.on("lines", (lines) => view.setLines(lines));
   draft.onChange = () => {
     view.moved = new Set(draft.cameras.keys());
     preview.refresh();

@@ -1,8 +1,11 @@
 // Toolbar buttons, the selection panel (FoV and range sliders) and the page's keyboard shortcuts.
+// The scene is not its to touch: display toggles and view commands go out as store events.
 
 const FORM_FIELDS = "input, textarea, select, [contenteditable]";
+const PAN_SHARE = 0.1; // Alt+arrow pans by this share of the view's width
 
-export function bindControls(root, { store, draft, editor, view, selection, page }, signal) {
+// page: { flush() (save and preview now), apply() (apply the edit set and map again) }
+export function bindControls(root, { store, draft, editor, selection, page }, signal) {
   const $ = (id) => root.querySelector(`#${id}`);
   const on = (id, handler) => $(id).addEventListener("click", handler, { signal });
   const fov = $("fov-slider");
@@ -11,13 +14,14 @@ export function bindControls(root, { store, draft, editor, view, selection, page
   range.max = String(editor.medianRange * 4);
   range.step = String(editor.medianRange / 200);
 
-  const toggle = (id, key) => {
+  const toggle = (key) => {
     store[key] = !store[key];
-    $(id).setAttribute("aria-pressed", String(store[key]));
+    store.emit("display");
   };
+  const view = (command) => store.emit("view", command);
   const showPreview = async () => {
     $("preview-panel").open = true;
-    await page.sync?.flush();
+    await page.flush();
     $("cut-counter").scrollIntoView({ block: "nearest" });
     $("preview-panel").querySelector("summary").focus();
   };
@@ -25,13 +29,9 @@ export function bindControls(root, { store, draft, editor, view, selection, page
     undo: () => editor.undo(),
     redo: () => editor.redo(),
     "select-all": () => selection.all(),
-    "show-matching": () => { toggle("show-matching", "showMatching"); page.refresh(); },
-    "show-frusta": () => {
-      view.showFrusta = !view.showFrusta;
-      $("show-frusta").setAttribute("aria-pressed", String(view.showFrusta));
-      view.requestDraw();
-    },
-    "fit-view": () => view.fit(),
+    "show-matching": () => toggle("showMatching"),
+    "show-frusta": () => toggle("showFrusta"),
+    "fit-view": () => view({ fit: true }),
     "preview-button": showPreview,
     "apply-button": () => page.apply(),
     "flag-button": () => editor.toggleFlag(),
@@ -57,19 +57,15 @@ export function bindControls(root, { store, draft, editor, view, selection, page
   function panKey(e) {
     const arrows = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, 1], ArrowDown: [0, -1] };
     if (!arrows[e.key]) return false;
-    const span = (0.1 * view.canvas.width) / view.view.scale;
-    view.panBy(-arrows[e.key][0] * span, -arrows[e.key][1] * span);
+    view({ pan: [-arrows[e.key][0] * PAN_SHARE, -arrows[e.key][1] * PAN_SHARE] });
     return true;
   }
 
   function viewKey(e) {
     if (e.ctrlKey || e.metaKey) return false;
-    const rect = view.canvas.getBoundingClientRect();
-    const centre = [rect.left + rect.width / 2, rect.top + rect.height / 2];
     const keys = {
-      m: actions["show-matching"], t: actions["show-frusta"], d: showPreview, 0: () => view.fit(),
-      "+": () => view.zoomAt(...centre, 1.25), "=": () => view.zoomAt(...centre, 1.25),
-      "-": () => view.zoomAt(...centre, 0.8),
+      m: actions["show-matching"], t: actions["show-frusta"], d: showPreview, 0: () => view({ fit: true }),
+      "+": () => view({ zoom: 1.25 }), "=": () => view({ zoom: 1.25 }), "-": () => view({ zoom: 0.8 }),
     };
     const handler = keys[e.key.toLowerCase()];
     if (!handler) return false;
@@ -98,6 +94,8 @@ export function bindControls(root, { store, draft, editor, view, selection, page
         $("fov-value").textContent = `${Math.round(poses[0].fov_deg ?? 0)}°`;
         $("range-value").textContent = `${(poses[0].range ?? 0).toPrecision(3)}`;
       }
+      $("show-matching").setAttribute("aria-pressed", String(store.showMatching));
+      $("show-frusta").setAttribute("aria-pressed", String(store.showFrusta));
       root.dataset.selectionCount = String(n);
     },
   };

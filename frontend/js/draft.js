@@ -3,6 +3,9 @@ import { pairKey, splitKey } from "./geometry.js";
 
 const MERGE_MS = 700; // repeated key presses of one kind within this time are one undo step
 
+// A pose's fields that an edit set stores for a moved camera.
+export const pick = (p) => ({ x: p.x, y: p.y, yaw_deg: p.yaw_deg, fov_deg: p.fov_deg, range: p.range });
+
 export class Draft {
   constructor() {
     this.cameras = new Map(); // image id -> {x, y, yaw_deg, fov_deg, range}

@@ -1,5 +1,7 @@
 // Editing the draft: arrow keys translate the selection, q/r rotate it about its centroid (rigidly),
 // mouse drag moves it, sliders set FoV and range, unregistered images are dropped into the scene.
+// It changes the draft and the selection only; the panels see the changes through the store.
+import { pick } from "./draft.js";
 import { median, rigidMove } from "./geometry.js";
 
 const STEP_OF_RANGE = 0.05; // one arrow press moves this share of the median camera range
@@ -7,16 +9,15 @@ const SHIFT = 5; // shift multiplies steps
 const ROTATE_DEG = 2;
 
 export class Editor {
-  constructor(store, draft, view, selection, notify) {
-    Object.assign(this, { store, draft, view, selection, notify });
+  // centre(): the world point new images are placed at (the view's centre).
+  constructor(store, draft, selection, notify, centre) {
+    Object.assign(this, { store, draft, selection, notify, centre });
     const ranges = store.cameras.map((c) => c.range).filter((r) => r > 0);
     const fovs = store.cameras.map((c) => c.fov_deg).filter((f) => f > 0);
     this.medianRange = median(ranges) ?? 1;
     this.medianFov = median(fovs) ?? 60;
     this.step = this.medianRange * STEP_OF_RANGE;
-    view.canvas.dataset.step = String(this.step);
-    view.canvas.dataset.rotateStep = String(ROTATE_DEG);
-    view.poseOf = (cam) => this.poseOf(cam);
+    this.rotateStep = ROTATE_DEG;
   }
 
   // The pose on screen: the draft's when moved, else the model's (null when not placed).
@@ -56,6 +57,13 @@ export class Editor {
     }, mergeKey);
   }
 
+  // A mouse drag: `poses` (taken when it started) translated by (dx, dy), one undo step.
+  drag(poses, dx, dy, key) {
+    this.draft.change((d) => {
+      for (const p of poses) d.cameras.set(p.id, { ...pick(p), x: p.x + dx, y: p.y + dy });
+    }, key, true);
+  }
+
   // Set fov_deg and/or range on every selected, placed camera.
   setFrustum(values, mergeKey) {
     if (!this.canEdit()) return;
@@ -82,7 +90,7 @@ export class Editor {
   placeSelectionAtCentre() {
     const unplaced = [...this.store.selection].filter((id) => !this.poseOf(this.store.byId.get(id)));
     if (!unplaced.length) return this.notify("No selected image is waiting to be placed.");
-    this.place(unplaced, this.view.view.cx, this.view.view.cy);
+    this.place(unplaced, ...this.centre());
   }
 
   resetSelected() {
@@ -123,5 +131,3 @@ export class Editor {
   undo() { if (this.canEdit()) this.draft.undo(); }
   redo() { if (this.canEdit()) this.draft.redo(); }
 }
-
-export const pick = (p) => ({ x: p.x, y: p.y, yaw_deg: p.yaw_deg, fov_deg: p.fov_deg, range: p.range });

@@ -1,8 +1,7 @@
 // Mouse on the scene: hover, click to select, drag the selection, drag empty space to pan,
-// wheel to zoom (shift+wheel rotates the selection), and drop images from the strip.
-import { pick } from "./editor.js";
-
-export const DRAG_TYPE = "application/x-gsfm-image";
+// wheel to zoom (shift+wheel rotates the selection), and drop images from the strip. This is the
+// scene's input: it is handed the scene view; it changes the draft through the editor.
+import { DRAG_IMAGE } from "./state.js";
 
 export function bindPointer(canvas, { store, view, editor, selection }, signal) {
   let gesture = null; // {kind: "pan"|"drag", x, y, moved, start}
@@ -34,11 +33,7 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
       gesture.moved = true;
     } else if (gesture.kind === "drag") {
       const [dx, dy] = [here[0] - gesture.start[0], here[1] - gesture.start[1]];
-      editor.draft.change((d) => {
-        for (const p of gesture.poses) {
-          d.cameras.set(p.id, { ...pick(p), x: p.x + dx, y: p.y + dy });
-        }
-      }, gesture.key, true);
+      editor.drag(gesture.poses, dx, dy, gesture.key);
     }
   }, { signal });
 
@@ -67,10 +62,10 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
   }, { signal, passive: false });
 
   canvas.addEventListener("dragover", (e) => {
-    if (e.dataTransfer.types.includes(DRAG_TYPE)) e.preventDefault();
+    if (e.dataTransfer.types.includes(DRAG_IMAGE)) e.preventDefault();
   }, { signal });
   canvas.addEventListener("drop", (e) => {
-    const raw = e.dataTransfer.getData(DRAG_TYPE);
+    const raw = e.dataTransfer.getData(DRAG_IMAGE);
     if (!raw) return;
     e.preventDefault();
     const id = Number(raw);

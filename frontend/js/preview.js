@@ -1,20 +1,25 @@
-// Live preview: match lines of the moved (and, with "show matching", the selected) cameras, the
-// pairs the server's preview would cut in red, an instant triangle-test estimate while it is
-// stale, the counter and the warning when the match graph would split.
+// The Preview panel: match lines of the moved (and, with "show matching", the selected) cameras,
+// the pairs the server's preview deletes in red, the counter and the warning when the match graph
+// would split. Between a change and the server's answer (previewState "stale") it shows an
+// instant estimate instead, dashed and marked "≈": the paper's triangle test on the moved cameras
+// plus the manual deletions, nothing more. The server's rule ("default" unless the edit set says
+// "paper") also judges the matches themselves, so the two counts may differ; the panel names both.
+// The lines reach the scene through the store ("lines").
 import { frustum, pairKey, splitKey, trianglesIntersect } from "./geometry.js";
 
 const MAX_LINE_CAMERAS = 300; // beyond this many moved cameras only the cut lines are drawn
 
 export class Preview {
-  constructor(root, { store, draft, editor, view }) {
-    Object.assign(this, { root, store, draft, editor, view });
+  constructor(root, { store, draft, editor }) {
+    Object.assign(this, { root, store, draft, editor });
     this.counter = root.querySelector("#cut-counter");
     this.warning = root.querySelector("#split-warning");
     this.details = root.querySelector("#preview-details");
   }
 
-  // Pairs the paper's triangle test would cut, plus the manual deletions (browser-side estimate).
-  predicted() {
+  // The instant estimate: pairs of a moved camera whose frustum triangles no longer meet (the
+  // paper's triangle test), plus the manual deletions. Only the moved cameras' pairs are tested.
+  estimate() {
     const { store, draft, editor } = this;
     const cuts = new Set(draft.deletePairs);
     for (const id of draft.cameras.keys()) {
@@ -34,15 +39,10 @@ export class Preview {
   }
 
   refresh() {
-    const ready = this.store.previewState !== "stale";
-    const predicted = this.predicted();
-    const cuts = ready ? this.serverCuts() : predicted;
-    this.view.lines = this.lines(cuts, ready ? "cut" : "predicted");
-    const red = this.view.lines.filter((l) => l.kind !== "match").length;
-    this.view.canvas.dataset.redLines = String(red);
-    this.view.canvas.dataset.lines = String(this.view.lines.length);
-    this.view.requestDraw();
-    this.renderCounter(predicted.size);
+    const stale = this.store.previewState === "stale";
+    const estimate = stale ? this.estimate() : null;
+    this.store.set("lines", this.lines(stale ? estimate : this.serverCuts(), stale ? "estimate" : "cut"));
+    this.renderCounter(estimate);
   }
 
   lines(cuts, cutKind) {
@@ -64,16 +64,19 @@ export class Preview {
     });
   }
 
-  renderCounter(predictedCount) {
+  // The server's count, or (estimate not null) the browser's estimate, each saying what it is.
+  renderCounter(estimate) {
     const { preview, previewState } = this.store;
     const count = preview?.pairs_to_delete?.length ?? 0;
+    const rule = `the server's "${this.draft.rule}" rule`;
     const c = this.counter;
     c.dataset.state = previewState;
     c.dataset.count = String(count);
-    c.dataset.predicted = String(predictedCount);
-    c.querySelector(".count").textContent = previewState === "stale" ? `≈${predictedCount}` : String(count);
-    c.querySelector(".note").textContent = previewState === "stale"
-      ? "estimate from the triangles; the server's preview follows the save" : "pairs the rule would delete";
+    c.dataset.estimate = estimate ? String(estimate.size) : "";
+    c.querySelector(".count").textContent = estimate ? `≈${estimate.size}` : String(count);
+    c.querySelector(".note").textContent = estimate
+      ? `instant estimate: the paper's triangle test in the browser; ${rule} answers after the save`
+      : `pairs ${rule} would delete`;
     const split = preview && preview.components_after > preview.components_before;
     this.warning.hidden = !split;
     if (split) {

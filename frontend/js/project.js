@@ -1,4 +1,6 @@
-// The project page: loads a version's scene, pairs and edit set, and wires the panels together.
+// The project page: loads a version's scene, pairs and edit set, builds the shared state (store,
+// draft, selection, editor) and the panels, and wires the store's events to the scene view. The
+// only module that imports panels: they never import each other.
 import { get, post } from "./api.js";
 import { Draft } from "./draft.js";
 import { Editor } from "./editor.js";
@@ -68,8 +70,6 @@ export class ProjectPage {
     store.points = pointsOf(scene);
     store.pairs = adjacency(pairs ?? []);
     this.view.setScene(store.cameras, store.points);
-    this.view.lines = [];
-    this.view.arrows = [];
     this.view.fit();
     this.root.querySelector("#empty-scene").hidden = true;
   }
@@ -83,8 +83,6 @@ export class ProjectPage {
       seq: img.seq ?? i, registered: null, x: null, y: null, yaw_deg: null, fov_deg: null, range: null }));
     store.byId = new Map(store.cameras.map((c) => [c.id, c]));
     this.view.setScene(store.cameras, new Float32Array(0));
-    this.view.lines = [];
-    this.view.arrows = [];
     this.view.requestDraw();
     this.root.querySelector("#empty-scene").hidden = false;
     this.root.querySelector("#images-panel").open = true;
@@ -95,9 +93,10 @@ export class ProjectPage {
     const signal = this.abort.signal;
     const selection = new Selection(store);
     this.selection = selection;
-    this.editor = new Editor(store, draft, view, selection, notify);
+    this.editor = new Editor(store, draft, selection, notify, () => [view.view.cx, view.view.cy]);
     store.medianRange = this.editor.medianRange;
-    const ctx = { store, draft, editor: this.editor, view, selection, projectId: store.project.id, notify };
+    this.wireView();
+    const ctx = { store, draft, editor: this.editor, selection, projectId: store.project.id, notify };
     this.strip = new Strip(this.root.querySelector("#strip"), ctx, signal);
     this.preview = new Preview(this.root.querySelector("#preview-panel"), ctx);
     this.matches = new MatchesPanel(this.root.querySelector("#matching-panel"), ctx, signal);
@@ -108,14 +107,29 @@ export class ProjectPage {
     }
     this.upload = new UploadPanel(this.root.querySelector("#images-panel"), { ...ctx,
       onUploaded: () => { if (!store.version) this.reopen(); }, onJob: (job) => this.followJob(job) }, signal);
-    bindPointer(view.canvas, ctx, signal);
-    this.controls = bindControls(this.root, { ...ctx, page: this }, signal);
+    bindPointer(view.canvas, { ...ctx, view }, signal);
+    const page = { flush: () => this.sync?.flush(), apply: () => this.apply() };
+    this.controls = bindControls(this.root, { ...ctx, page }, signal);
     draft.onChange = (kind) => {
       store.emit("draft");
       if (kind !== "load") this.sync?.changed();
     };
-    for (const name of ["draft", "selection", "preview"]) store.on(name, () => this.refresh());
+    for (const name of ["draft", "selection", "preview", "display"]) store.on(name, () => this.refresh());
+  }
+
+  // The scene view draws what the store's events say; it is kept across pages, so it starts clean.
+  wireView() {
+    const { store, editor, view } = this;
+    view.poseOf = (cam) => editor.poseOf(cam);
+    view.setLines([]);
+    view.setArrows([]);
+    store.showFrusta = view.showFrusta; // the frusta toggle outlives the page, like the view
+    Object.assign(view.canvas.dataset, { step: String(editor.step), rotateStep: String(editor.rotateStep) });
     store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
+    store.on("lines", (lines) => view.setLines(lines));
+    store.on("arrows", (arrows) => view.setArrows(arrows));
+    store.on("display", () => { view.showFrusta = store.showFrusta; view.requestDraw(); });
+    store.on("view", (command) => view.command(command));
   }
 
   // Redraw the scene and the panels that depend on the draft, selection and preview.

@@ -1,10 +1,10 @@
 // The top-down scene on a <canvas>: world<->screen transform, density of points, camera glyphs,
-// frustum triangles, match lines, comparison arrows and a scale bar. It draws what it is told;
-// the editor owns selection and poses.
+// frustum triangles, match lines, comparison arrows and a scale bar. It draws what it is told:
+// the page forwards the store's "lines", "arrows", "display" and "view" events to it.
 import { DensityLayer } from "./density.js";
 import { drawArrows, drawFrusta, drawGlyphs, drawScaleBar, drawSegments } from "./glyphs.js";
 const COLOURS = ["points", "camera", "moved", "unregistered", "flagged", "selected", "hovered",
-  "match", "cut", "predicted", "arrow", "ghost", "frustum"];
+  "match", "cut", "estimate", "arrow", "ghost", "frustum"];
 
 export class SceneView {
   constructor(canvas) {
@@ -21,7 +21,7 @@ export class SceneView {
     this.flagged = new Set();
     this.hovered = null;
     this.showFrusta = false;
-    this.lines = []; // [{a, b, kind: "match"|"cut"|"predicted", weight}]
+    this.lines = []; // [{a, b, kind: "match"|"cut"|"estimate", weight}]
     this.arrows = []; // [{from: [x, y], to: [x, y]}]
     this.colours = readColours(canvas);
     this.frame = 0;
@@ -40,6 +40,33 @@ export class SceneView {
     this.cameras = cameras;
     this.points = points;
     this.base = new Map(cameras.filter((c) => c.x !== null).map((c) => [c.id, c]));
+  }
+
+  // Match lines; the estimate's and the server's cut lines are the red ones.
+  setLines(lines) {
+    this.lines = lines;
+    this.canvas.dataset.lines = String(lines.length);
+    this.canvas.dataset.redLines = String(lines.filter((l) => l.kind !== "match").length);
+    this.requestDraw();
+  }
+
+  setArrows(arrows) {
+    this.arrows = arrows;
+    this.canvas.dataset.arrows = String(arrows.length);
+    this.requestDraw();
+  }
+
+  // A command from the toolbar or the keys: fit, zoom about the centre, pan by a share of the view.
+  command({ fit, zoom, pan }) {
+    if (fit) this.fit();
+    if (zoom) {
+      const rect = this.canvas.getBoundingClientRect();
+      this.zoomAt(rect.left + rect.width / 2, rect.top + rect.height / 2, zoom);
+    }
+    if (pan) {
+      const span = this.canvas.width / this.view.scale;
+      this.panBy(pan[0] * span, pan[1] * span);
+    }
   }
 
   resize() {
@@ -231,7 +258,7 @@ export class SceneView {
       const [order, width] = key.split(" ").map(Number);
       const kind = LINE_ORDER[order];
       drawSegments(this.ctx, t, groups.get(key), { colour: this.colours[kind], width: width * px,
-        dash: kind === "predicted" ? [4 * px, 3 * px] : [] });
+        dash: kind === "estimate" ? [4 * px, 3 * px] : [] });
     }
   }
 
@@ -257,7 +284,7 @@ export class SceneView {
 
 const modelPose = (cam) => (cam.x === null ? null : cam);
 const CATEGORIES = ["camera", "unregistered", "moved", "flagged", "selected", "hovered"];
-const LINE_ORDER = ["match", "predicted", "cut"];
+const LINE_ORDER = ["match", "estimate", "cut"];
 
 function sameKey(a, b) {
   if (!b || a.length !== b.length) return false;

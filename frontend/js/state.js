@@ -1,10 +1,25 @@
-// The open project's state shared by the panels, with named change events.
+// The open project's state shared by the panels, with named change events. Panels never import
+// each other: one panel changes the store and emits an event, the others listen (project.js wires
+// the scene view to the events below).
+//
+//   "draft"      the draft edit set changed            (draft.js, via project.js)
+//   "selection"  store.selection / store.anchor         (selection.js)
+//   "hover"      store.hovered                          (pointer, strip, matching panel)
+//   "preview"    store.preview / store.previewState     (sync.js)
+//   "lines"      store.lines: match and cut lines       (preview panel) -> scene
+//   "arrows"     store.arrows: comparison arrows        (versions panel) -> scene
+//   "display"    store.showMatching / store.showFrusta  (controls) -> scene, preview
+//   "view"       a command for the scene: {fit} | {zoom} | {pan: [x, y]} (share of the view)
+
+// The drag-and-drop type of an image dragged from the strip onto the scene.
+export const DRAG_IMAGE = "application/x-gsfm-image";
 
 export function createStore() {
   const events = new EventTarget();
   return {
     project: null,
     version: null, // the version on screen
+    frame: null, // the scene's ground frame {origin, x_axis, y_axis}
     readOnly: false, // an older version opened for viewing
     locked: false, // a job of this project is queued or running
     cameras: [], // [{id, name, seq, registered, x, y, yaw_deg, fov_deg, range, center}]
@@ -12,12 +27,20 @@ export function createStore() {
     images: [],
     points: new Float32Array(0),
     pairs: new Map(), // image id -> Map(partner id -> inliers)
+    medianRange: 1, // of the cameras on screen; the unit of steps and thresholds
     selection: new Set(),
     anchor: null, // last clicked image, for shift-click ranges
+    lastStepped: null, // last image reached with [ or ]
     hovered: null,
     showMatching: false,
+    showFrusta: false,
+    preview: null, // the server's answer to GET .../edits/{id}/preview
+    previewState: "none", // none | stale | ready
+    lines: [], // [{a, b, kind: "match"|"cut"|"estimate", weight}]
+    arrows: [], // [{id, from: [x, y], to: [x, y]}]
     on(name, handler) { events.addEventListener(name, (e) => handler(e.detail)); },
     emit(name, detail) { events.dispatchEvent(new CustomEvent(name, { detail })); },
+    set(name, value) { this[name] = value; this.emit(name, value); },
     get editable() { return !this.readOnly && !this.locked && !!this.version; },
   };
 }

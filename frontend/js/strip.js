@@ -1,5 +1,5 @@
 // The image-sequence strip: thumbnails in capture order, linked to the scene by hover and selection.
-import { DRAG_TYPE } from "./pointer.js";
+import { DRAG_IMAGE } from "./state.js";
 import { ThumbnailLoader } from "./thumbs.js";
 
 export class Strip {
@@ -13,7 +13,7 @@ export class Strip {
     root.addEventListener("pointerleave", () => this.onHover(null), { signal });
     root.addEventListener("dragstart", (e) => {
       const id = this.idOf(e.target);
-      if (id !== null) e.dataTransfer.setData(DRAG_TYPE, String(id));
+      if (id !== null) e.dataTransfer.setData(DRAG_IMAGE, String(id));
     }, { signal });
     store.on("selection", () => this.update(true));
     store.on("hover", () => this.updateHover());

@@ -1,11 +1,13 @@
 // Version history: author, time and stats of every version; open one read-only, restore it, or
-// compare it with the version on screen (cameras that moved, drawn as arrows).
+// compare it with the version on screen (cameras that moved, drawn as arrows on the scene).
 import { get, post } from "./api.js";
-import { fitSimilarity } from "./compare.js";
+import { median } from "./geometry.js";
+
+const MOVED_SHARE = 0.1; // of the median camera range: a camera farther than this has moved
 
 export class VersionsPanel {
-  constructor(root, { store, view, notify, onRestored }, signal) {
-    Object.assign(this, { root, store, view, notify, onRestored });
+  constructor(root, { store, notify, onRestored }, signal) {
+    Object.assign(this, { root, store, notify, onRestored });
     this.list = root.querySelector("#version-list");
     this.summary = root.querySelector("#compare-summary");
     this.clearButton = root.querySelector("#compare-clear");
@@ -96,9 +98,14 @@ export class VersionsPanel {
     }
   }
 
-  // Arrows from each camera's place in the other version to its place on screen.
+  // Arrows from each camera's place in the other version to its place on screen. /compare says
+  // which cameras moved (after aligning the two models); the arrows need no fit of their own, as
+  // a version's model is aligned to its parent's when it is made, so both share one world frame
+  // and the other version's camera centres are only projected onto the ground frame on screen.
+  // A fresh reconstruction is not aligned to earlier versions: when the cameras the server calls
+  // unmoved are not where they were, no arrows are drawn and the summary says why.
   showArrows(otherId, result, scene) {
-    const frame = this.store.frame;
+    const { frame, medianRange } = this.store;
     const project = (c) => {
       const d = c.map((v, i) => v - frame.origin[i]);
       return [dot(d, frame.x_axis), dot(d, frame.y_axis)];
@@ -106,23 +113,26 @@ export class VersionsPanel {
     const before = new Map(scene.cameras.filter((c) => c.center).map((c) => [c.image_id, project(c.center)]));
     const changes = new Map(result.cameras.map((c) => [c.image_id, c]));
     const common = this.store.cameras.filter((c) => c.x !== null && before.has(c.id));
-    const moved = common.filter((c) => isMoved(changes.get(c.id), this.store.medianRange));
-    const still = common.filter((c) => !moved.includes(c));
-    const anchors = still.length >= 2 ? still : common;
-    const toScreen = fitSimilarity(anchors.map((c) => [before.get(c.id), [c.x, c.y]]));
-    this.view.arrows = moved.map((c) => ({ from: toScreen(before.get(c.id)), to: [c.x, c.y] }));
-    this.view.requestDraw();
-    this.summary.dataset.moved = String(moved.length);
+    const moved = common.filter((c) => isMoved(changes.get(c.id), medianRange));
+    const still = common.filter((c) => !moved.includes(c) && typeof changes.get(c.id)?.moved === "number");
+    const offsets = still.map((c) => Math.hypot(before.get(c.id)[0] - c.x, before.get(c.id)[1] - c.y));
+    const shared = !offsets.length || median(offsets) <= MOVED_SHARE * medianRange;
+    const arrows = shared ? moved.map((c) => ({ id: c.id, from: before.get(c.id), to: [c.x, c.y] })) : [];
+    this.store.set("arrows", arrows);
+    Object.assign(this.summary.dataset, { moved: String(moved.length), arrows: JSON.stringify(arrows),
+      sharedFrame: String(shared) });
     this.summary.textContent = `v${otherId} → v${this.store.version.id}: ${moved.length} of ${common.length} ` +
-      "cameras moved (arrows).";
+      (shared ? "cameras moved (arrows)." : `cameras moved; v${otherId} is in another frame (a separate ` +
+        "reconstruction), so no arrows are drawn.");
     this.clearButton.hidden = false;
   }
 
   clearCompare() {
-    this.view.arrows = [];
-    this.view.requestDraw();
+    this.store.set("arrows", []);
     this.summary.textContent = "";
     delete this.summary.dataset.moved;
+    delete this.summary.dataset.arrows;
+    delete this.summary.dataset.sharedFrame;
     this.clearButton.hidden = true;
   }
 }
@@ -133,7 +143,7 @@ const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 function isMoved(change, medianRange) {
   if (!change) return false;
   const distance = typeof change.moved === "number" ? change.moved : change.moved ? Infinity : 0;
-  return distance > 0.1 * medianRange || (change.rotated_deg ?? 0) > 5;
+  return distance > MOVED_SHARE * medianRange || (change.rotated_deg ?? 0) > 5;
 }
 
 function button(text, action, versionId, title, disabled = false) {

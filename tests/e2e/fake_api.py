@@ -8,7 +8,7 @@ import base64
 import json
 import math
 from pathlib import Path
-from urllib.parse import urlsplit
+from urllib.parse import parse_qs, urlsplit
 
 FRONTEND = Path(__file__).resolve().parents[2] / "frontend"
 ORIGIN = "http://gsfm.test"
@@ -18,22 +18,30 @@ TYPES = {".html": "text/html", ".js": "text/javascript", ".css": "text/css"}
 CUT_DISTANCE = 2.5  # the fake rule: a moved camera loses the pairs to cameras farther than this
 
 
-def camera(image_id: int, x: float | None, registered: bool = True) -> dict:
+def camera(image_id: int, x: float | None, registered: bool = True, y: float = 0.0) -> dict:
+    """A scene camera looking along +y; the ground frame is the world's x-y plane."""
     placed = registered and x is not None
     return {"image_id": image_id, "name": f"{image_id:04d}.jpg", "seq": image_id - 1,
             "registered": registered, "model": 0 if placed else None,
-            "x": x if placed else None, "y": 0.0 if placed else None, "yaw_deg": 90.0 if placed else None,
+            "x": x if placed else None, "y": y if placed else None, "yaw_deg": 90.0 if placed else None,
             "fov_deg": 60.0, "range": 2.0 if placed else None,
-            "center": [x, 0.0, 0.0] if placed else None, "qvec": [1.0, 0.0, 0.0, 0.0] if placed else None}
+            "center": [x, y, 0.0] if placed else None, "qvec": [1.0, 0.0, 0.0, 0.0] if placed else None}
 
 
 class FakeApi:
-    """Project 1 with five cameras in a row (ids 1-5), one unregistered image (6), seven pairs."""
+    """Project 1 with five cameras in a row (ids 1-5), one unregistered image (6), seven pairs.
 
-    def __init__(self, head: int = 1) -> None:
+    `older` gives earlier versions' cameras (version id -> cameras; default: the head's);
+    `compare` overrides the answer of GET .../versions/{vid}/compare (default: the distances
+    between the two versions' camera centres, as if the server had aligned them)."""
+
+    def __init__(self, head: int = 1, older: dict[int, list[dict]] | None = None,
+                 compare: list[dict] | None = None) -> None:
         self.cameras = [camera(i, float(i - 1)) for i in range(1, 6)] + [camera(6, None, False)]
         self.pairs = {(1, 2): 100, (2, 3): 80, (3, 4): 120, (4, 5): 60, (1, 3): 30, (2, 4): 40, (3, 5): 50}
         self.head = head
+        self.older = older or {}
+        self.compare_answer = compare
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
 
@@ -75,8 +83,12 @@ class FakeApi:
             return 200, routes[(method, path)]()
         if path.endswith("/scene"):
             frame = {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0], "up": [0, 0, 1]}
-            return 200, {"frame": frame, "cameras": self.cameras, "models": [{"index": 0, "num_images": 5}],
+            return 200, {"frame": frame, "cameras": self.cameras_of(version_of(path)),
+                         "models": [{"index": 0, "num_images": 5}],
                          "points": {"xy": [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)]}}
+        if path.endswith("/compare"):
+            to = int(parse_qs(urlsplit(request.url).query)["to"][0])
+            return 200, {"cameras": self.compare_answer or self.compare(version_of(path), to)}
         if path.endswith("/pairs"):
             return 200, [{"image_id1": a, "image_id2": b, "num_inliers": n}
                          for (a, b), n in self.pairs.items()]
@@ -99,6 +111,16 @@ class FakeApi:
                  "author": "fake-user", "message": "", "created_at": "2026-01-01T00:00:00Z", "stats": stats}
                 for v in range(self.head, 0, -1)]
 
+    def cameras_of(self, version: int) -> list[dict]:
+        return self.older.get(version, self.cameras)
+
+    def compare(self, version: int, to: int) -> list[dict]:
+        """Per registered camera of `to`: how far its centre is from the one in `version`."""
+        before = {c["image_id"]: c for c in self.cameras_of(version) if c["center"]}
+        return [{"image_id": c["image_id"], "moved": math.dist(c["center"], before[c["image_id"]]["center"]),
+                 "rotated_deg": abs(c["yaw_deg"] - before[c["image_id"]]["yaw_deg"])}
+                for c in self.cameras_of(to) if c["center"] and c["image_id"] in before]
+
     def preview(self) -> dict:
         """Manual deletions, plus pairs of a moved camera now farther apart than CUT_DISTANCE."""
         placed = {c["image_id"]: (c["x"], c["y"]) for c in self.cameras if c["x"] is not None}
@@ -114,6 +136,11 @@ class FakeApi:
                 "components_after": components(kept, {i for p in self.pairs for i in p}),
                 "removed_by_test": {"fake": len(cut)}, "kept_to_connect": [],
                 "reasons": [{"pair": list(p), "tests": ["fake"]} for p in sorted(cut)]}
+
+
+def version_of(path: str) -> int:
+    """The version id of .../versions/{vid}/..."""
+    return int(path.split("/versions/")[1].split("/")[0])
 
 
 def components(pairs, images: set[int] | None = None) -> int:

@@ -4,13 +4,14 @@ a read-only version and hover links. Fast: no server, no reconstruction."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
 from playwright.sync_api import expect
 
 from tests.e2e.conftest import shot
-from tests.e2e.fake_api import ORIGIN, FakeApi
+from tests.e2e.fake_api import ORIGIN, FakeApi, camera
 
 pytestmark = pytest.mark.browser
 
@@ -134,3 +135,84 @@ def test_read_only_version_and_hover_links(page):
     expect(rows).to_have_count(2)
     assert "head" in rows.nth(0).inner_text() and "on screen" in rows.nth(1).inner_text()
     shot(page, "offline-read-only")
+
+
+def press_in_one_task(page, *keys: tuple[str, bool]) -> dict:
+    """Dispatch key presses on the scene and read the preview counter in the same JS task, before
+    the debounced save can answer: what the counter shows while the server's preview is stale."""
+    return page.evaluate("""keys => {
+        const scene = document.querySelector('#scene');
+        for (const [key, shiftKey] of keys) {
+            scene.dispatchEvent(new KeyboardEvent('keydown', {key, shiftKey, bubbles: true}));
+        }
+        const c = document.querySelector('#cut-counter');
+        return {state: c.dataset.state, estimate: c.dataset.estimate, count: c.dataset.count,
+                shown: c.querySelector('.count').textContent, note: c.querySelector('.note').textContent,
+                red: document.querySelector('#scene').dataset.redLines};
+    }""", [list(k) for k in keys])
+
+
+def test_instant_estimate_is_labelled_as_the_papers_triangle_test(page):
+    """Camera 5 moved 0.4 to the right: its triangle no longer meets camera 3's (2.4 apart, the
+    triangles are 2.31 wide), so the browser's estimate of the paper's test cuts (3, 5); the
+    fake server's rule cuts only beyond 2.5, so its count is 0. Each count says what it is."""
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='5']").click()
+    stale = press_in_one_task(page, ("ArrowRight", True), ("ArrowLeft", False))
+    assert stale["state"] == "stale" and stale["estimate"] == "1" and stale["shown"] == "≈1"
+    assert "estimate" in stale["note"] and "paper's triangle test" in stale["note"]
+    assert 'server\'s "default" rule' in stale["note"] and stale["red"] == "1"
+    shot(page, "offline-estimate")
+    assert math.isclose(next(c for c in saved(page, fake)["cameras"] if c["image_id"] == 5)["x"], 4.4)
+    counter = page.locator("#cut-counter")
+    assert counter.get_attribute("data-count") == "0" and counter.get_attribute("data-estimate") == ""
+    assert page.inner_text("#cut-counter .count") == "0"
+    assert page.inner_text("#cut-counter .note") == 'pairs the server\'s "default" rule would delete'
+    assert page.get_attribute("#scene", "data-red-lines") == "0"
+
+
+# Version 1 of a folded run: cameras 2-5 sat on a diagonal; version 2 (the head) put them back in
+# the row. Only camera 1 stayed, so a fit on the unmoved cameras has too few to work with.
+FOLDED = [camera(1, 0.0), camera(2, 1.0, y=1.0), camera(3, 0.5, y=1.5), camera(4, 0.0, y=2.0),
+          camera(5, -0.5, y=2.5), camera(6, None, False)]
+
+
+def compare_with_v1(page, fake: FakeApi) -> dict:
+    open_fake(page, fake)
+    page.locator("#versions-panel summary").click()
+    page.locator("#version-list li[data-version-id='1']").get_by_role("button", name="Compare").click()
+    page.wait_for_selector("#compare-summary[data-moved]")
+    return page.eval_on_selector("#compare-summary", "e => ({...e.dataset, text: e.textContent})")
+
+
+def test_compare_arrows_start_where_the_cameras_were(page):
+    """The server keeps versions in one frame and says which cameras moved: each arrow runs from
+    the camera's place in v1 to its place on screen, as long as the server says it moved."""
+    fake = FakeApi(head=2, older={1: FOLDED})
+    summary = compare_with_v1(page, fake)
+    arrows = {a["id"]: a for a in json.loads(summary["arrows"])}
+    assert sorted(arrows) == [2, 3, 4, 5] and summary["sharedFrame"] == "true"
+    moved = {c["image_id"]: c["moved"] for c in fake.compare(1, 2)}
+    for cam in FOLDED[1:5]:
+        arrow = arrows[cam["image_id"]]
+        assert arrow["from"] == pytest.approx([cam["x"], cam["y"]], abs=1e-9), arrow
+        assert arrow["to"] == pytest.approx([cam["image_id"] - 1.0, 0.0], abs=1e-9)
+        assert math.dist(arrow["from"], arrow["to"]) == pytest.approx(moved[cam["image_id"]], abs=1e-9)
+    assert page.get_attribute("#scene", "data-arrows") == "4"
+    assert "4 of 5 cameras moved (arrows)" in summary["text"]
+    shot(page, "offline-compare-arrows")
+    page.get_by_role("button", name="Clear comparison").click()
+    assert page.get_attribute("#scene", "data-arrows") == "0"
+
+
+def test_compare_with_a_version_in_another_frame_draws_no_arrows(page):
+    """A separate reconstruction is not aligned to earlier versions: v1 is the head turned by 90
+    degrees. The server (aligning the two itself) says only camera 5 moved; the cameras it calls
+    unmoved are far from where v1 has them, so the panel draws no arrows and says why."""
+    turned = [camera(c["image_id"], -c["y"], y=c["x"]) if c["center"] else c for c in FakeApi().cameras]
+    answer = [{"image_id": i, "moved": 1.0 if i == 5 else 0.0, "rotated_deg": 0.0} for i in range(1, 6)]
+    summary = compare_with_v1(page, FakeApi(head=2, older={1: turned}, compare=answer))
+    assert summary["moved"] == "1" and summary["sharedFrame"] == "false"
+    assert json.loads(summary["arrows"]) == [] and page.get_attribute("#scene", "data-arrows") == "0"
+    assert "v1 is in another frame" in summary["text"]

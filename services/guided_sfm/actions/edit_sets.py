@@ -10,6 +10,7 @@ from sqlalchemy import update
 from sqlalchemy.orm import Session
 
 from guided_sfm import jobs
+from guided_sfm.actions import lookup
 from guided_sfm.core.edits import edits_to_json, parse_edits
 from guided_sfm.core.errors import InvalidInput, UnknownImage
 from guided_sfm.db import queries
@@ -20,7 +21,7 @@ from guided_sfm.errors import Conflict, PreconditionRequired
 def validate(session: Session, project: Project, body: dict[str, Any]) -> dict[str, Any]:
     """The normalized body (REST image ids); raises naming the first problem found."""
     base_id = body.get("base_version_id")
-    queries.in_project(session, Version, project.id, base_id)
+    lookup.in_project(session, Version, project.id, base_id)
     ids = queries.image_ids_by_name(session, project.id)
     known = set(ids.values())
     edits = parse_edits(body, ids)

@@ -9,10 +9,11 @@ from fastapi import Depends, Path, Request
 from fastapi.security import OAuth2PasswordBearer
 from sqlalchemy.orm import Session
 
+from guided_sfm.actions import lookup
+from guided_sfm.actions.lookup import InProject
 from guided_sfm.api import security
 from guided_sfm.db import queries
 from guided_sfm.db.models import MAX_ID, EditSetRow, Image, Job, Project, User, Version
-from guided_sfm.db.queries import InProject
 from guided_sfm.errors import Forbidden, NotFound, Unauthorized
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -89,7 +90,7 @@ def found_in_project(model: type[InProject], param: str, needed: str) -> Callabl
 
     def dependency(row_id: Annotated[int, Path(alias=param, ge=1, le=MAX_ID)], session: SessionDep,
                    project: Annotated[Project, Depends(project_with(needed))]) -> InProject:
-        return queries.in_project(session, model, project.id, row_id)
+        return lookup.in_project(session, model, project.id, row_id)
 
     return dependency
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import TypeVar
-
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
@@ -18,10 +16,6 @@ from guided_sfm.db.models import (
     User,
     Version,
 )
-from guided_sfm.errors import NotFound
-
-NOUNS = {Image: "image", Version: "version", EditSetRow: "edit set"}  # in 404 messages
-InProject = TypeVar("InProject", Image, Version, EditSetRow)
 
 
 def user_by_name(session: Session, username: str) -> User | None:
@@ -54,14 +48,6 @@ def members(session: Session, project_id: int) -> list[Membership]:
 def owner_count(session: Session, project_id: int) -> int:
     query = select(func.count()).where(Membership.project_id == project_id, Membership.role == "owner")
     return session.scalar(query) or 0
-
-
-def in_project(session: Session, model: type[InProject], project_id: int, row_id: int) -> InProject:
-    """The project's row of `model` with this id; NotFound naming both when there is none."""
-    row = session.get(model, row_id)
-    if row is None or row.project_id != project_id:
-        raise NotFound(f"{NOUNS[model]} {row_id} not found in project {project_id}")
-    return row
 
 
 def images(session: Session, project_id: int) -> list[Image]:

@@ -7,8 +7,8 @@ from fastapi.responses import FileResponse
 from starlette.background import BackgroundTask
 
 from guided_sfm.actions import export as export_action
+from guided_sfm.actions import lookup, version_data
 from guided_sfm.actions import restore as restore_action
-from guided_sfm.actions import version_data
 from guided_sfm.api.deps import (
     CurrentUser,
     EditorProject,
@@ -67,5 +67,5 @@ def export(version: ViewerVersion, store: StoreDep,
 @router.get("/{vid}/compare", response_model=CompareOut)
 def compare(version: ViewerVersion, session: SessionDep, store: StoreDep,
             to: Annotated[int, Query(ge=1, le=MAX_ID, description="the other version's id")]) -> dict:
-    other = queries.in_project(session, Version, version.project_id, to)
+    other = lookup.in_project(session, Version, version.project_id, to)
     return version_data.compare(session, store, version, other)
