@@ -40,7 +40,7 @@ def finished(service, headers, job: dict) -> dict:
         return j["state"] not in ("queued", "running")
 
     done = service.wait_job(headers, job["id"], ended, JOB_TIMEOUT)
-    assert done["state"] == "succeeded", done
+    assert done["state"] == "succeeded", f"job {done['id']} ({done['kind']}) {done['state']}: {done['error']}"
     return done
 
 
