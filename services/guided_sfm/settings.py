@@ -30,6 +30,7 @@ class Settings:
     threads: int = 2
     open_signup: bool = True
     max_upload_mb: int = 1024
+    max_image_mpx: int = 100  # larger images are refused from their header, before any decode
     secret_key: str | None = None
     token_minutes: int = 7 * 24 * 60
     sweep_seconds: float = 30.0  # sweeper period
@@ -64,8 +65,8 @@ class Settings:
         if urlsplit(self.broker_url).scheme not in BROKER_SCHEMES:
             raise SettingsError(
                 f"{PREFIX}BROKER_URL must be redis:// or filesystem://, got {self.broker_url!r}")
-        if self.threads < 1 or self.max_upload_mb < 1:
-            raise SettingsError(f"{PREFIX}THREADS and {PREFIX}MAX_UPLOAD_MB must be >= 1")
+        if min(self.threads, self.max_upload_mb, self.max_image_mpx) < 1:
+            raise SettingsError(f"{PREFIX}THREADS, {PREFIX}MAX_UPLOAD_MB and {PREFIX}MAX_IMAGE_MPX must be >= 1")
         if self.secret_key is not None and len(self.secret_key) < 16:
             raise SettingsError(f"{PREFIX}SECRET_KEY must be at least 16 characters")
 
