@@ -66,7 +66,8 @@ class Settings:
             raise SettingsError(
                 f"{PREFIX}BROKER_URL must be redis:// or filesystem://, got {self.broker_url!r}")
         if min(self.threads, self.max_upload_mb, self.max_image_mpx) < 1:
-            raise SettingsError(f"{PREFIX}THREADS, {PREFIX}MAX_UPLOAD_MB and {PREFIX}MAX_IMAGE_MPX must be >= 1")
+            raise SettingsError(
+                f"{PREFIX}THREADS, {PREFIX}MAX_UPLOAD_MB and {PREFIX}MAX_IMAGE_MPX must be >= 1")
         if self.secret_key is not None and len(self.secret_key) < 16:
             raise SettingsError(f"{PREFIX}SECRET_KEY must be at least 16 characters")
 
