@@ -38,6 +38,8 @@ class Settings:
     stale_seconds: float = 60.0  # a running job silent this long lost its worker
     requeue_seconds: float = 60.0  # a queued job untouched this long lost its message
     max_attempts: int = 2  # a job whose worker died runs again until it has started this often
+    job_base_seconds: float = 3600.0  # a job's time limit: this much ...
+    job_seconds_per_image: float = 60.0  # ... plus this per image of its project
 
     @classmethod
     def from_env(cls, environ: Mapping[str, str] | None = None, **overrides: object) -> Settings:

@@ -9,6 +9,7 @@ import pytest
 from tests.conftest import create_database
 from tests.factories import PASSWORD
 from tests.faults.live_api import LiveApi, service_env
+from tests.worker.conftest import service_factory  # noqa: F401  (API in-process + a real worker)
 
 
 @pytest.fixture

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from guided_sfm import jobs
 from guided_sfm.actions import uploads
 from guided_sfm.actions.context import JobContext, NewImage, Produced
+from guided_sfm.core import colmap_db
 from guided_sfm.core.errors import InvalidInput
 from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
@@ -80,6 +81,7 @@ def run(context: JobContext, work: Path) -> Produced:
         images = _extract(upload, work, context.settings.max_upload_bytes, context.settings.max_image_mpx)
     finally:
         upload.unlink(missing_ok=True)
+    colmap_db.check_untrusted(work / "database.db")  # before pycolmap or we read a row of it
     workspace = Workspace(work)
     workspace.write_meta({"image_dir": str(context.images_dir()), "imported": True})
     names = set(workspace.image_ids())
