@@ -38,6 +38,7 @@ class Settings:
     stale_seconds: float = 60.0  # a running job silent this long lost its worker
     requeue_seconds: float = 60.0  # a queued job untouched this long lost its message
     max_attempts: int = 2  # a job whose worker died runs again until it has started this often
+    orphan_grace_seconds: float = 600.0  # files without rows this old are removed (reconcile)
     job_base_seconds: float = 3600.0  # a job's time limit: this much ...
     job_seconds_per_image: float = 60.0  # ... plus this per image of its project
 

@@ -16,8 +16,9 @@ def out(project: Project, role: str | None) -> ProjectOut:
 
 
 @router.post("", status_code=201, response_model=ProjectOut)
-def create_project(body: ProjectCreate, session: SessionDep, user: CurrentUser) -> ProjectOut:
-    return out(projects.create(session, user.id, body.name, body.description), "owner")
+def create_project(body: ProjectCreate, session: SessionDep, store: StoreDep,
+                   user: CurrentUser) -> ProjectOut:
+    return out(projects.create(session, store, user.id, body.name, body.description), "owner")
 
 
 @router.get("", response_model=list[ProjectOut])
