@@ -12,10 +12,9 @@ from collections.abc import Callable
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm import jobs
-from guided_sfm.actions.reconcile import reconcile
+from guided_sfm.actions.reconcile import reconcile_store
 from guided_sfm.db.session import make_sessionmaker, session_scope
 from guided_sfm.settings import Settings
-from guided_sfm.storage import ArtifactStore
 
 log = logging.getLogger(__name__)
 
@@ -45,11 +44,10 @@ class Sweeper(threading.Thread):
 
     def run(self) -> None:
         sessions = make_sessionmaker(self.settings)
-        store = ArtifactStore(self.settings.artifacts_dir)
         try:
             while True:
                 try:
-                    self.round(sessions, store)
+                    self.round(sessions)
                     self.failures = 0
                 except Exception:
                     self.failures += 1
@@ -59,11 +57,10 @@ class Sweeper(threading.Thread):
         finally:
             sessions.kw["bind"].dispose()
 
-    def round(self, sessions: sessionmaker[Session], store: ArtifactStore) -> None:
+    def round(self, sessions: sessionmaker[Session]) -> None:
         sweep(sessions, self.settings, self.submit)
         if time.monotonic() - self.reconciled_at >= self.settings.orphan_grace_seconds:
-            with session_scope(sessions) as session:
-                reconcile(session, store, self.settings.orphan_grace_seconds)
+            reconcile_store(sessions, self.settings)
             self.reconciled_at = time.monotonic()
 
     def stop(self) -> None:

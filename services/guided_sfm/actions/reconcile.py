@@ -10,9 +10,11 @@ import time
 from pathlib import Path
 
 from sqlalchemy import select
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm.db.models import Image, Project
+from guided_sfm.db.session import session_scope
+from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
 log = logging.getLogger(__name__)
@@ -41,6 +43,12 @@ def reconcile(session: Session, store: ArtifactStore, grace_seconds: float) -> d
     if any(removed.values()):
         log.warning("reconcile: removed orphans %s", removed)
     return removed
+
+
+def reconcile_store(sessions: sessionmaker[Session], settings: Settings) -> dict[str, int]:
+    """reconcile() on the settings' artifact store, in a session of its own."""
+    with session_scope(sessions) as session:
+        return reconcile(session, ArtifactStore(settings.artifacts_dir), settings.orphan_grace_seconds)
 
 
 def _older(path: Path, cutoff: float) -> bool:
