@@ -29,3 +29,11 @@ class BadUpload(DomainError):
 
 class Unauthorized(DomainError):
     """No valid credentials."""
+
+
+class TooManyRequests(DomainError):
+    """Too many attempts from one client or on one account; retry after `retry_after` seconds."""
+
+    def __init__(self, message: str, retry_after: int) -> None:
+        super().__init__(message)
+        self.retry_after = retry_after

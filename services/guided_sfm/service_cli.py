@@ -53,7 +53,8 @@ def cmd_api(args: argparse.Namespace) -> None:
     celery = make_celery(settings)
     app = create_app(settings, submitter(celery), readiness=functools.partial(readiness, settings, celery))
     _reconcile(app.state.sessions, settings)
-    uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+    # proxy_headers off: the client address is ours to judge (GUIDED_SFM_TRUSTED_PROXIES, api/throttle.py)
+    uvicorn.run(app, host=args.host, port=args.port, log_level="info", proxy_headers=False)
 
 
 def _reconcile(sessions, settings: Settings) -> None:

@@ -14,6 +14,7 @@ from guided_sfm.api import errors, health
 from guided_sfm.api.health import Readiness
 from guided_sfm.api.limits import BodyLimit
 from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, users, versions
+from guided_sfm.api.throttle import Throttle
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -32,6 +33,7 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.store = ArtifactStore(settings.artifacts_dir)
     app.state.submit = submit
     app.state.readiness = readiness or dict
+    app.state.throttle = Throttle(settings)
     errors.install(app)
     for module in (health, users, auth, projects, members, images, jobs, versions, edits):
         app.include_router(module.router, prefix=API_PREFIX)

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from guided_sfm.actions import lookup
 from guided_sfm.actions.lookup import InProject
 from guided_sfm.api import security
+from guided_sfm.api.throttle import Throttle
 from guided_sfm.db import queries
 from guided_sfm.db.models import MAX_ID, EditSetRow, Image, Job, Project, User, Version
 from guided_sfm.db.session import read_only
@@ -46,7 +47,17 @@ def get_submit(request: Request) -> Callable[[int], None]:
     return request.app.state.submit
 
 
+def get_throttle(request: Request) -> Throttle:
+    return request.app.state.throttle
+
+
+def client_address(request: Request) -> str:
+    return request.app.state.throttle.client(request)
+
+
 SessionDep = Annotated[Session, Depends(get_session)]
+ThrottleDep = Annotated[Throttle, Depends(get_throttle)]
+ClientAddress = Annotated[str, Depends(client_address)]
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[ArtifactStore, Depends(get_store)]
 SubmitDep = Annotated[Callable[[int], None], Depends(get_submit)]

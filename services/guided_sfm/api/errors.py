@@ -24,6 +24,7 @@ STATUS: list[tuple[type[DomainError], int]] = [
     (errors.Conflict, 409),
     (errors.PreconditionRequired, 428),
     (errors.TooLarge, 413),
+    (errors.TooManyRequests, 429),
     (errors.BadUpload, 422),
     (InvalidInput, 422),
     (UnknownImage, 422),
@@ -40,6 +41,8 @@ def status_of(exc: DomainError) -> int:
 
 async def domain_error(_request: Request, exc: DomainError) -> JSONResponse:
     headers = {"WWW-Authenticate": "Bearer"} if isinstance(exc, errors.Unauthorized) else None
+    if isinstance(exc, errors.TooManyRequests):
+        headers = {"Retry-After": str(exc.retry_after)}
     return JSONResponse({"detail": str(exc)}, status_code=status_of(exc), headers=headers)
 
 
