@@ -11,6 +11,7 @@ from fastapi.staticfiles import StaticFiles
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm.api import errors, health
+from guided_sfm.api.headers import SecurityHeaders
 from guided_sfm.api.health import Readiness
 from guided_sfm.api.limits import BodyLimit
 from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, users, versions
@@ -38,6 +39,7 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     for module in (health, users, auth, projects, members, images, jobs, versions, edits):
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(BodyLimit, upload_limit=settings.max_upload_bytes)
+    app.add_middleware(SecurityHeaders, index_html=FRONTEND / "index.html")
 
     if FRONTEND.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND, html=True), name="frontend")

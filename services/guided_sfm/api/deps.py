@@ -1,11 +1,12 @@
 """Dependencies as Annotated aliases: session, settings, store, current user, project by role, and
 the image, version, edit set or job of the path (404 naming it when the caller may not see it)."""
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from functools import cache
-from typing import Annotated
+from typing import Annotated, TypeVar
 
-from fastapi import Depends, Path, Request
+from fastapi import Depends, Path, Query, Request
 from fastapi.security import OAuth2PasswordBearer
 from sqlalchemy.orm import Session
 
@@ -21,6 +22,8 @@ from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
 PathId = Annotated[int, Path(ge=1, le=MAX_ID)]
+MAX_PAGE = 10_000
+T = TypeVar("T")
 bearer = OAuth2PasswordBearer(tokenUrl="/api/v1/auth/token", auto_error=False)
 
 
@@ -133,4 +136,24 @@ def job_with(needed: str) -> Callable[..., Job]:
 
 
 ViewerJob = Annotated[Job, Depends(job_with("viewer"))]
+
+
+@dataclass(frozen=True)
+class Page:
+    """Opt-in paging of a list (design.md): without `limit` the whole list, as in v1."""
+
+    limit: int | None
+    offset: int
+
+    def of(self, items: Sequence[T]) -> list[T]:
+        end = None if self.limit is None else self.offset + self.limit
+        return list(items[self.offset:end])
+
+
+def page(limit: Annotated[int | None, Query(ge=1, le=MAX_PAGE)] = None,
+         offset: Annotated[int, Query(ge=0, le=MAX_ID)] = 0) -> Page:
+    return Page(limit, offset)
+
+
+PageDep = Annotated[Page, Depends(page)]
 EditorJob = Annotated[Job, Depends(job_with("editor"))]

@@ -43,7 +43,8 @@ async def domain_error(_request: Request, exc: DomainError) -> JSONResponse:
     headers = {"WWW-Authenticate": "Bearer"} if isinstance(exc, errors.Unauthorized) else None
     if isinstance(exc, errors.TooManyRequests):
         headers = {"Retry-After": str(exc.retry_after)}
-    return JSONResponse({"detail": str(exc)}, status_code=status_of(exc), headers=headers)
+    detail = errors.without_paths(str(exc))
+    return JSONResponse({"detail": detail}, status_code=status_of(exc), headers=headers)
 
 
 async def validation_error(_request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -56,7 +57,7 @@ async def validation_error(_request: Request, exc: RequestValidationError) -> JS
 
 async def unstorable_value(_request: Request, exc: DataError) -> JSONResponse:
     """A value the database refuses (out of range, NUL in text) that validation let through."""
-    reason = str(getattr(exc, "orig", exc)).splitlines()[0]
+    reason = errors.without_paths(str(getattr(exc, "orig", exc)).splitlines()[0])
     return JSONResponse({"detail": f"a value cannot be stored: {reason}"}, status_code=422)
 
 

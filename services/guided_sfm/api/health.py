@@ -9,6 +9,8 @@ from fastapi import APIRouter, Request
 from fastapi.responses import JSONResponse
 from sqlalchemy import text
 
+from guided_sfm.errors import without_paths
+
 Readiness = Callable[[], dict[str, str]]  # part -> problem; empty when the broker and workers are fine
 router = APIRouter(tags=["health"])
 
@@ -18,7 +20,8 @@ def database_problem(request: Request) -> str | None:
         with request.app.state.sessions() as session:
             session.execute(text("SELECT 1"))
     except Exception as exc:  # any driver error means the same thing here: not answering
-        return f"the database does not answer ({type(exc).__name__}: {str(exc).splitlines()[0][:200]})"
+        reason = without_paths(str(exc).splitlines()[0][:200])
+        return f"the database does not answer ({type(exc).__name__}: {reason})"
     return None
 
 

@@ -6,7 +6,15 @@ from fastapi import APIRouter, File, UploadFile
 from fastapi.responses import FileResponse
 
 from guided_sfm.actions import images as image_actions
-from guided_sfm.api.deps import EditorProject, SessionDep, SettingsDep, StoreDep, ViewerImage, ViewerProject
+from guided_sfm.api.deps import (
+    EditorProject,
+    PageDep,
+    SessionDep,
+    SettingsDep,
+    StoreDep,
+    ViewerImage,
+    ViewerProject,
+)
 from guided_sfm.api.schemas import ImageOut
 from guided_sfm.db import queries
 from guided_sfm.db.models import Image
@@ -24,8 +32,8 @@ def upload_images(project: EditorProject, session: SessionDep, store: StoreDep, 
 
 
 @router.get("", response_model=list[ImageOut])
-def list_images(project: ViewerProject, session: SessionDep) -> list[Image]:
-    return queries.images(session, project.id)
+def list_images(project: ViewerProject, session: SessionDep, page: PageDep) -> list[Image]:
+    return page.of(queries.images(session, project.id))
 
 
 @router.get("/{image_id}/thumbnail", response_class=FileResponse)

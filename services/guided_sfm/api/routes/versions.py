@@ -13,6 +13,7 @@ from guided_sfm.api.deps import (
     CurrentUser,
     EditorProject,
     EditorVersion,
+    PageDep,
     SessionDep,
     StoreDep,
     ViewerProject,
@@ -44,9 +45,9 @@ def scene(version: ViewerVersion, session: SessionDep, store: StoreDep) -> Respo
 
 
 @router.get("/{vid}/pairs", response_model=list[PairOut])
-def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep,
+def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep, page: PageDep,
           image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> list[dict]:
-    return version_data.pairs(session, store, version, image_id)
+    return page.of(version_data.pairs(session, store, version, image_id))
 
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)
