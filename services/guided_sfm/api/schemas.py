@@ -47,6 +47,31 @@ class TokenOut(Out):
     token_type: str = "bearer"
 
 
+class PasswordChange(In):
+    old_password: Text = Field(max_length=256)
+    new_password: Text = Field(min_length=8, max_length=256)
+
+
+class AccessTokenCreate(In):
+    name: Text = Field(min_length=1, max_length=100)
+    scope: Literal["read", "write"]
+    projects: list[DbId] | None = Field(default=None, max_length=1000)  # None: every project
+    expires_days: int | None = Field(default=None, ge=1, le=3650)  # None: until revoked
+
+
+class AccessTokenOut(Out):
+    id: int
+    name: str
+    scope: str
+    projects: list[int] | None
+    created_at: datetime
+    expires_at: datetime | None
+
+
+class AccessTokenCreated(AccessTokenOut):
+    token: str  # the secret, shown this once
+
+
 class ProjectCreate(In):
     name: Text = Field(min_length=1, max_length=200)
     description: Text = Field(default="", max_length=10_000)

@@ -24,6 +24,7 @@ from sqlalchemy.orm import Mapped, mapped_column, relationship
 from guided_sfm.db.base import Base
 
 ROLES = ("viewer", "editor", "owner")
+TOKEN_SCOPES = ("read", "write")
 JOB_KINDS = ("reconstruct", "apply", "import")
 JOB_STATES = ("queued", "running", "succeeded", "failed", "cancelled")
 ACTIVE_STATES = ("queued", "running")
@@ -57,7 +58,26 @@ class User(Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     username: Mapped[str] = mapped_column(String(64), unique=True)
     password_hash: Mapped[str] = mapped_column(String(255))
+    # Session tokens carry the epoch they were issued in; a password change moves it on.
+    token_epoch: Mapped[int] = mapped_column(Integer, default=0, server_default="0")
     created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+
+class AccessToken(Base):
+    """A personal access token: only its SHA-256 digest is kept (the secret is shown once)."""
+
+    __tablename__ = "access_tokens"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"), index=True)
+    name: Mapped[str] = mapped_column(String(100))
+    scope: Mapped[str] = mapped_column(String(8))  # read | write
+    projects: Mapped[list[int] | None] = mapped_column(JSON)  # None: every project of the user
+    digest: Mapped[str] = mapped_column(String(64), unique=True)
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    expires_at: Mapped[datetime | None] = mapped_column(Timestamp())
+
+    user: Mapped[User] = relationship(lazy="joined")
 
 
 class Project(Base):

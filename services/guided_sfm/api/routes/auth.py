@@ -21,4 +21,4 @@ def token(form: Annotated[OAuth2PasswordRequestForm, Depends()], session: Sessio
     if not security.verify_password(form.password, user.password_hash if user else None):
         raise Unauthorized("wrong username or password")
     return TokenOut(access_token=security.issue_token(user.id, settings.secret_key or "",
-                                                      settings.token_minutes))
+                                                      settings.token_minutes, user.token_epoch))
