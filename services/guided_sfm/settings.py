@@ -37,6 +37,10 @@ class Settings:
     stale_seconds: float = 60.0  # a running job silent this long lost its worker
     requeue_seconds: float = 60.0  # a queued job untouched this long lost its message
     max_attempts: int = 2  # a job whose worker died runs again until it has started this often
+    webhook_allow_private: bool = False  # webhooks to loopback/private addresses (tests, intranets)
+    webhook_retry_seconds: float = 10.0  # first retry after a failed delivery; doubles each time
+    webhook_attempts: int = 6  # deliveries given up after this many tries
+    webhook_timeout_seconds: float = 5.0  # per delivery request
 
     @classmethod
     def from_env(cls, environ: Mapping[str, str] | None = None, **overrides: object) -> Settings:
@@ -49,6 +53,7 @@ class Settings:
             "database_url": env.get(PREFIX + "DATABASE_URL") or f"sqlite:///{data_dir / 'guided_sfm.db'}",
             "broker_url": env.get(PREFIX + "BROKER_URL") or "filesystem://",
             "open_signup": _bool(env, "OPEN_SIGNUP", True),
+            "webhook_allow_private": _bool(env, "WEBHOOK_ALLOW_PRIVATE", False),
             "secret_key": env.get(PREFIX + "SECRET_KEY") or None,
             **{name: _number(env, name.upper(), default) for name, default in _numeric_defaults()},
         }

@@ -6,6 +6,7 @@ import pytest
 from tests.factories import add_member, jpeg_bytes, signup
 
 VIEWER, EDITOR, OWNER = "viewer", "editor", "owner"
+HOOK = {"url": "https://example.org/", "events": ["job_finished"]}
 
 
 def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict) -> list[tuple]:
@@ -40,6 +41,10 @@ def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict) -> list
         ("DELETE", f"{p}/edits/{eid}", EDITOR, {}),
         ("GET", f"{p}/edits/{eid}/preview", VIEWER, {}),
         ("POST", f"{p}/edits/{eid}/apply", EDITOR, {"json": {"remap": True}}),
+        ("POST", f"{p}/webhooks", OWNER, {"json": HOOK}),
+        ("GET", f"{p}/webhooks", OWNER, {}),
+        ("DELETE", f"{p}/webhooks/1", OWNER, {}),
+        ("GET", f"{p}/webhooks/1/deliveries", OWNER, {}),
     ]
 
 

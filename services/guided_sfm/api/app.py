@@ -13,7 +13,18 @@ from sqlalchemy.orm import Session, sessionmaker
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from guided_sfm.api import errors
-from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, tokens, users, versions
+from guided_sfm.api.routes import (
+    auth,
+    edits,
+    images,
+    jobs,
+    members,
+    projects,
+    tokens,
+    users,
+    versions,
+    webhooks,
+)
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -50,7 +61,7 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.store = ArtifactStore(settings.artifacts_dir)
     app.state.submit = submit
     errors.install(app)
-    for module in (users, auth, tokens, projects, members, images, jobs, versions, edits):
+    for module in (users, auth, tokens, projects, members, images, jobs, versions, edits, webhooks):
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(UploadLimit, limit=settings.max_upload_bytes)
 

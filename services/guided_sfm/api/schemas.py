@@ -72,6 +72,35 @@ class AccessTokenCreated(AccessTokenOut):
     token: str  # the secret, shown this once
 
 
+class WebhookIn(In):
+    url: Text = Field(min_length=1, max_length=2000)
+    events: list[Literal["job_finished", "version_created", "edit_submitted", "edit_reviewed"]] = Field(
+        min_length=1)
+    secret: Text | None = Field(default=None, min_length=16, max_length=200)  # None: one is generated
+
+
+class WebhookOut(Out):
+    id: int
+    url: str
+    events: list[str]
+    created_at: datetime
+
+
+class WebhookCreated(WebhookOut):
+    secret: str  # shown this once; each delivery's X-Guided-SFM-Signature is an HMAC with it
+
+
+class DeliveryOut(Out):
+    id: int
+    event: str
+    at: datetime
+    status_code: int | None
+    attempts: int
+    ok: bool = False
+    state: str  # pending (retries left), ok, failed (given up)
+    answer: str | None
+
+
 class ProjectCreate(In):
     name: Text = Field(min_length=1, max_length=200)
     description: Text = Field(default="", max_length=10_000)

@@ -25,6 +25,7 @@ from guided_sfm.db.base import Base
 
 ROLES = ("viewer", "editor", "owner")
 TOKEN_SCOPES = ("read", "write")
+WEBHOOK_EVENTS = ("job_finished", "version_created", "edit_submitted", "edit_reviewed")
 JOB_KINDS = ("reconstruct", "apply", "import")
 JOB_STATES = ("queued", "running", "succeeded", "failed", "cancelled")
 ACTIVE_STATES = ("queued", "running")
@@ -158,6 +159,36 @@ class EditSetRow(Base):
     updated_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
 
     updated_by: Mapped[User | None] = relationship(lazy="joined")
+
+
+class Webhook(Base):
+    """A project's subscription: events are POSTed to `url`, signed with `secret`."""
+
+    __tablename__ = "webhooks"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    url: Mapped[str] = mapped_column(String(2000))
+    events: Mapped[list[str]] = mapped_column(JSON)
+    secret: Mapped[str] = mapped_column(String(200))  # kept readable: each delivery is signed with it
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+
+class WebhookDelivery(Base):
+    """One event for one webhook: an outbox row written with the change, sent and retried after."""
+
+    __tablename__ = "webhook_deliveries"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    webhook_id: Mapped[int] = mapped_column(ForeignKey("webhooks.id", ondelete="CASCADE"), index=True)
+    event: Mapped[str] = mapped_column(String(32))
+    body: Mapped[str] = mapped_column(Text)  # the exact bytes signed and sent, as text
+    at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    state: Mapped[str] = mapped_column(String(16), default="pending", index=True)  # pending|ok|failed
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    next_attempt_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    status_code: Mapped[int | None] = mapped_column(Integer)
+    answer: Mapped[str | None] = mapped_column(Text)  # the receiver's reply or the error, cut short
 
 
 class Job(Base):
