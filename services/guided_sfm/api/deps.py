@@ -14,6 +14,7 @@ from guided_sfm.actions.lookup import InProject
 from guided_sfm.api import security
 from guided_sfm.db import queries
 from guided_sfm.db.models import MAX_ID, AccessToken, EditSetRow, Image, Job, Project, User, Version
+from guided_sfm.db.session import read_only
 from guided_sfm.errors import Forbidden, NotFound, Unauthorized
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -22,8 +23,14 @@ PathId = Annotated[int, Path(ge=1, le=MAX_ID)]
 bearer = OAuth2PasswordBearer(tokenUrl="/api/v1/auth/token", auto_error=False)
 
 
+READ_METHODS = ("GET", "HEAD", "OPTIONS")
+
+
 def get_session(request: Request) -> Iterator[Session]:
+    """A session per request; reads do not take SQLite's write lock (see db.session)."""
     with request.app.state.sessions() as session:
+        if request.method in READ_METHODS:
+            read_only(session)
         yield session
 
 

@@ -19,7 +19,8 @@ def upload_images(project: EditorProject, session: SessionDep, store: StoreDep, 
                   files: Annotated[list[UploadFile], File(description="JPEG/PNG files or one .zip")]
                   ) -> list[Image]:
     uploads = [(f.filename or "", f.file) for f in files]
-    return image_actions.upload(session, store, project, uploads, settings.max_upload_bytes)
+    return image_actions.upload(session, store, project, uploads, settings.max_upload_bytes,
+                                settings.max_image_mpx)
 
 
 @router.get("", response_model=list[ImageOut])

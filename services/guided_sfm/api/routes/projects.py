@@ -24,12 +24,12 @@ def out(project: Project, role: str | None) -> ProjectOut:
 
 
 @router.post("", status_code=201, response_model=ProjectOut)
-def create_project(body: ProjectCreate, request: Request, session: SessionDep,
+def create_project(body: ProjectCreate, request: Request, session: SessionDep, store: StoreDep,
                    user: CurrentUser) -> ProjectOut:
     token = personal_token(request)
     if token is not None and token.projects is not None:
         raise Forbidden(f"the access token {token.name!r} is limited to projects {token.projects}")
-    return out(projects.create(session, user.id, body.name, body.description), "owner")
+    return out(projects.create(session, store, user.id, body.name, body.description), "owner")
 
 
 @router.get("", response_model=list[ProjectOut])
