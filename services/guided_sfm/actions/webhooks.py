@@ -131,11 +131,8 @@ def claim(session: Session, delivery_id: int, now: datetime, lease: float) -> We
         update(WebhookDelivery).where(WebhookDelivery.id == delivery_id,
                                       WebhookDelivery.attempts == row.attempts)
         .values(attempts=row.attempts + 1, next_attempt_at=now + timedelta(seconds=lease)))
-    session.commit()
-    if result.rowcount != 1:
-        return None
-    session.refresh(row)
-    return row
+    session.commit()  # the update set the row's attempts in memory too; no reload (no new transaction)
+    return row if result.rowcount == 1 else None
 
 
 def send(row: WebhookDelivery, hook: Webhook, settings: Settings,
@@ -173,12 +170,13 @@ def record(session: Session, row: WebhookDelivery, status: int | None, answer: s
 def deliver_due(session: Session, settings: Settings, client: httpx.Client) -> int:
     """Send every delivery that is due; returns how many attempts were made."""
     made = 0
-    for delivery_id in due(session, utcnow()):
+    ids = due(session, utcnow())
+    session.commit()
+    for delivery_id in ids:
         row = claim(session, delivery_id, utcnow(), lease=settings.webhook_timeout_seconds * 3)
-        if row is None:
-            continue
-        hook = session.get(Webhook, row.webhook_id)
-        if hook is None:  # deleted meanwhile (its deliveries go with it)
+        hook = session.get(Webhook, row.webhook_id) if row is not None else None
+        session.commit()  # no transaction (on SQLite: no write lock) while the request is out
+        if hook is None:  # taken by another sender, or the webhook was deleted meanwhile
             continue
         status, answer = send(row, hook, settings, client)
         record(session, row, status, answer, settings, utcnow())
