@@ -6,6 +6,7 @@ should catch it; a mutation survives when those tests pass. Not collected by pyt
 Each patch starts with header lines before its diff:
     catch: tests/api/test_x.py::test_y   (one or more; pytest node ids run on the mutated copy)
     why: one line saying what the mutation breaks
+    env: NAME=value   (optional; e.g. the Postgres URL for a test that only holds there)
 Exit status: 0 when every mutation is caught, 1 when any survives or fails to apply.
 """
 
@@ -53,7 +54,8 @@ def run_one(patch: Path) -> tuple[str, str, float]:
         applied = subprocess.run(["git", "apply", str(patch)], cwd=copy, capture_output=True, text=True)
         if applied.returncode != 0:
             return "NOT APPLIED", applied.stderr.strip(), 0.0
-        env = {**os.environ, "PYTHONPATH": f"{copy / 'services'}{os.pathsep}{copy}"}
+        env = {**os.environ, "PYTHONPATH": f"{copy / 'services'}{os.pathsep}{copy}",
+               **dict(line.split("=", 1) for line in header(patch, "env"))}
         start = time.monotonic()
         result = subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
                                  *tests], cwd=copy, env=env, capture_output=True, text=True)
