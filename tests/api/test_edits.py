@@ -137,11 +137,30 @@ def test_preview_lists_pairs_in_rest_ids(client, reconstructed):
     assert data["kept_to_connect"] == []  # the paper's rule keeps nothing
 
 
+def a_pair(client, s):
+    pairs = client.get(f"/api/v1/projects/{s.pid}/versions/{s.vid}/pairs", headers=s.owner).json()
+    return [pairs[0]["image_id1"], pairs[0]["image_id2"]]
+
+
+def test_an_empty_apply_is_422_nothing_to_apply_and_makes_no_job(client, reconstructed, submitted, session):
+    from guided_sfm.db.models import Version
+
+    s = reconstructed
+    flagged = {"base_version_id": s.vid, "flags": [first_id(s)]}  # a flag alone changes nothing either
+    for body in ({"base_version_id": s.vid}, {"base_version_id": s.vid, "cameras": []}, flagged):
+        eid = client.post(url(s), json=body, headers=s.owner).json()["id"]
+        response = client.post(url(s, f"/{eid}/apply"), json={"remap": True}, headers=s.owner)
+        assert response.status_code == 422 and "nothing to apply" in response.json()["detail"], response.text
+    assert session.query(Job).count() == 0 and submitted == []
+    assert session.query(Version).filter_by(project_id=s.pid).count() == 1
+
+
 def test_apply_queues_a_job_and_refuses_a_stale_base(client, reconstructed, submitted, session):
     from guided_sfm.db.models import Project
 
     s = reconstructed
-    eid = client.post(url(s), json={"base_version_id": s.vid}, headers=s.owner).json()["id"]
+    body = {"base_version_id": s.vid, "delete_pairs": [a_pair(client, s)]}
+    eid = client.post(url(s), json=body, headers=s.owner).json()["id"]
     response = client.post(url(s, f"/{eid}/apply"), json={"remap": True}, headers=s.owner)
     assert response.status_code == 202, response.text
     job = response.json()
