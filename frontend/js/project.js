@@ -181,7 +181,8 @@ export class ProjectPage {
     const done = await this.jobStatus.watch(job.id);
     this.setLocked(false);
     if (done.state === "succeeded") this.notify(done.message || `Job ${done.id} (${done.kind}) finished.`);
-    else this.notify(`Job ${done.id} ${done.state}: ${done.error ?? done.message ?? ""}`, "error");
+    else if (done.state === "cancelled") this.notify(`Job ${done.id} (${done.kind}) was cancelled.`, "warning");
+    else this.notify(`Job ${done.id} failed: ${done.error ?? done.message ?? ""}`, "error");
     if (!this.abort.signal.aborted) this.reopen();
   }
 
