@@ -31,6 +31,7 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
     "select-all": () => selection.all(),
     "show-matching": () => toggle("showMatching"),
     "show-frusta": () => toggle("showFrusta"),
+    "show-order": () => toggle("showOrder"),
     "fit-view": () => view({ fit: true }),
     "preview-button": showPreview,
     "apply-button": () => page.apply(),
@@ -64,7 +65,8 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
   function viewKey(e) {
     if (e.ctrlKey || e.metaKey) return false;
     const keys = {
-      m: actions["show-matching"], t: actions["show-frusta"], d: showPreview, 0: () => view({ fit: true }),
+      m: actions["show-matching"], t: actions["show-frusta"], o: actions["show-order"], d: showPreview,
+      0: () => view({ fit: true }),
       "+": () => view({ zoom: 1.25 }), "=": () => view({ zoom: 1.25 }), "-": () => view({ zoom: 0.8 }),
     };
     const handler = keys[e.key.toLowerCase()];
@@ -96,6 +98,7 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
       }
       $("show-matching").setAttribute("aria-pressed", String(store.showMatching));
       $("show-frusta").setAttribute("aria-pressed", String(store.showFrusta));
+      $("show-order").setAttribute("aria-pressed", String(store.showOrder));
       root.dataset.selectionCount = String(n);
     },
   };

@@ -123,12 +123,16 @@ export class ProjectPage {
     view.poseOf = (cam) => editor.poseOf(cam);
     view.setLines([]);
     view.setArrows([]);
-    store.showFrusta = view.showFrusta; // the frusta toggle outlives the page, like the view
+    store.showFrusta = view.showFrusta; // the display toggles outlive the page, like the view
+    store.showOrder = view.showOrder;
     Object.assign(view.canvas.dataset, { step: String(editor.step), rotateStep: String(editor.rotateStep) });
     store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
     store.on("lines", (lines) => view.setLines(lines));
     store.on("arrows", (arrows) => view.setArrows(arrows));
-    store.on("display", () => { view.showFrusta = store.showFrusta; view.requestDraw(); });
+    store.on("display", () => {
+      Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder });
+      view.requestDraw();
+    });
     store.on("view", (command) => view.command(command));
   }
 

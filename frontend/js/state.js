@@ -8,7 +8,7 @@
 //   "preview"    store.preview / store.previewState     (sync.js)
 //   "lines"      store.lines: match and cut lines       (preview panel) -> scene
 //   "arrows"     store.arrows: comparison arrows        (versions panel) -> scene
-//   "display"    store.showMatching / store.showFrusta  (controls) -> scene, preview
+//   "display"    store.showMatching / showFrusta / showOrder (controls) -> scene, preview
 //   "view"       a command for the scene: {fit} | {zoom} | {pan: [x, y]} (share of the view)
 
 // The drag-and-drop type of an image dragged from the strip onto the scene.
@@ -34,6 +34,7 @@ export function createStore() {
     hovered: null,
     showMatching: false,
     showFrusta: false,
+    showOrder: true, // the capture-order line and camera numbers
     preview: null, // the server's answer to GET .../edits/{id}/preview
     previewState: "none", // none | stale | ready
     lines: [], // [{a, b, kind: "match"|"cut"|"estimate", weight}]

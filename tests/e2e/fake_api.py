@@ -33,15 +33,17 @@ class FakeApi:
 
     `older` gives earlier versions' cameras (version id -> cameras; default: the head's);
     `compare` overrides the answer of GET .../versions/{vid}/compare (default: the distances
-    between the two versions' camera centres, as if the server had aligned them)."""
+    between the two versions' camera centres, as if the server had aligned them); `stray` adds
+    far points to the scene's."""
 
     def __init__(self, head: int = 1, older: dict[int, list[dict]] | None = None,
-                 compare: list[dict] | None = None) -> None:
+                 compare: list[dict] | None = None, stray: list[list[float]] = ()) -> None:
         self.cameras = [camera(i, float(i - 1)) for i in range(1, 6)] + [camera(6, None, False)]
         self.pairs = {(1, 2): 100, (2, 3): 80, (3, 4): 120, (4, 5): 60, (1, 3): 30, (2, 4): 40, (3, 5): 50}
         self.head = head
         self.older = older or {}
         self.compare_answer = compare
+        self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
 
@@ -85,7 +87,7 @@ class FakeApi:
             frame = {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0], "up": [0, 0, 1]}
             return 200, {"frame": frame, "cameras": self.cameras_of(version_of(path)),
                          "models": [{"index": 0, "num_images": 5}],
-                         "points": {"xy": [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)]}}
+                         "points": {"xy": self.points}}
         if path.endswith("/compare"):
             to = int(parse_qs(urlsplit(request.url).query)["to"][0])
             return 200, {"cameras": self.compare_answer or self.compare(version_of(path), to)}

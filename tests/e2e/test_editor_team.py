@@ -1,0 +1,72 @@
+"""The editor as a new team finds it (issue 18), in headless Chromium against the in-memory fake
+of the REST contract: the capture order on the scene, Fit framing the cameras, role-aware and
+safe controls, notices when a change is not kept. Fast: no server, no reconstruction."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.e2e.conftest import shot
+from tests.e2e.fake_api import FakeApi
+from tests.e2e.test_editor_offline import open_fake
+
+pytestmark = pytest.mark.browser
+
+ORDER_RGB = (0x71, 0x80, 0x96)  # --c-order
+
+
+def view(page) -> tuple[float, float, float]:
+    cx, cy, scale = map(float, page.get_attribute("#scene", "data-view").split(","))
+    return cx, cy, scale
+
+
+def pixel(page, x: float, y: float) -> tuple[int, int, int, int]:
+    """The canvas's RGBA at world (x, y), after any pending frame is drawn."""
+    return tuple(page.evaluate("""async ([x, y]) => {
+        await new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(done)));
+        const c = document.querySelector('#scene');
+        const [cx, cy, scale] = c.dataset.view.split(',').map(Number);
+        const sx = Math.round(c.width / 2 + (x - cx) * scale);
+        const sy = Math.round(c.height / 2 - (y - cy) * scale);
+        return [...c.getContext('2d').getImageData(sx, sy, 1, 1).data];
+    }""", [x, y]))
+
+
+def test_capture_order_line_and_numbers_on_the_scene(page):
+    """Cameras 1-5 stand in a row in capture order: a grey line joins each to the next (seen
+    half-way between two of them) and each carries its number; the O key hides both."""
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#fit-view").click()
+    assert page.get_attribute("#scene", "data-order-segments") == "4"  # 5 placed cameras
+    labels = json.loads(page.get_attribute("#scene", "data-labels"))
+    assert [text for text, _, _ in labels] == ["1", "2", "3", "4", "5"]
+    for x in (0.5, 1.5, 3.5):
+        *rgb, alpha = pixel(page, x, 0.0)
+        assert alpha > 60 and max(abs(a - b) for a, b in zip(rgb, ORDER_RGB, strict=True)) < 40, (x, rgb)
+    shot(page, "team-capture-order")
+    page.locator("#scene").focus()
+    page.keyboard.press("o")
+    assert page.get_attribute("#show-order", "aria-pressed") == "false"
+    assert pixel(page, 1.5, 0.0)[3] == 0  # the line is gone: the canvas is clear there
+    assert page.get_attribute("#scene", "data-labels") == "[]"
+
+
+@pytest.mark.parametrize("stray", [[], [[300.0, -250.0], [-400.0, 80.0], [120.0, 900.0]]],
+                         ids=["sample-like", "far-stray-points"])
+def test_fit_frames_the_cameras(page, stray):
+    """The five cameras span 4 units; Fit makes that at least a third of the canvas's longer
+    side, with or without stray points hundreds of units away."""
+    fake = FakeApi(stray=[p for p in stray for _ in range(3)])  # more than 2% of the points
+    open_fake(page, fake)
+    page.locator("#scene").focus()
+    page.keyboard.press("-")
+    page.locator("#fit-view").click()
+    page.wait_for_function("document.querySelector('#scene').dataset.view.split(',')[2] > 0")
+    width, height = page.evaluate("(c => [c.width, c.height])(document.querySelector('#scene'))")
+    cx, cy, scale = view(page)
+    assert 4.0 * scale >= max(width, height) / 3, (scale, width, height)
+    assert abs(cx - 2.0) * scale < width / 4  # centred on the cameras, not on the stray points
+    shot(page, f"team-fit-{len(stray)}")
