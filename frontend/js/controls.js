@@ -87,7 +87,7 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
         "reset-button", "delete-matching", "keep-matching", "rule-select"]) $(id).disabled = !editable;
       $("undo").disabled ||= !draft.undoStack.length;
       $("redo").disabled ||= !draft.redoStack.length;
-      $("reconstruct-button").disabled = store.locked;
+      $("reconstruct-button").disabled = store.locked || !store.canWrite;
       fov.disabled = range.disabled = !editable || !poses.length;
       $("rule-select").value = draft.rule;
       if (poses.length) {

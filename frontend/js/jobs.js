@@ -15,6 +15,7 @@ export class JobStatus {
     this.timer = 0;
     this.token = 0;
     this.job = null;
+    this.canCancel = true; // false for a viewer of the job's project
   }
 
   // Poll the job; onUpdate(job) runs on every answer; resolves with the job once it is terminal.
@@ -55,7 +56,7 @@ export class JobStatus {
     this.fill.style.width = `${percent}%`;
     this.text.textContent = statusText(job, percent);
     this.root.dataset.tone = job.state === "failed" ? "error" : "plain"; // a cancel is no error
-    this.cancel.hidden = TERMINAL.has(job.state) || !!job.cancel_requested;
+    this.cancel.hidden = TERMINAL.has(job.state) || !!job.cancel_requested || !this.canCancel;
   }
 
   showText(text) {

@@ -39,6 +39,7 @@ export class ProjectPage {
   async open(projectId, versionId = null) {
     const { store } = this;
     store.project = await get(`/projects/${projectId}`);
+    store.role = store.project.role ?? null;
     const vid = versionId ?? store.project.head_version_id;
     store.readOnly = versionId !== null && versionId !== store.project.head_version_id;
     view ??= new SceneView(this.root.querySelector("#scene"));
@@ -115,6 +116,7 @@ export class ProjectPage {
       if (kind !== "load") this.sync?.changed();
     };
     for (const name of ["draft", "selection", "preview", "display"]) store.on(name, () => this.refresh());
+    store.on("role", () => { this.showBanner(null); this.refresh(); });
   }
 
   // The scene view draws what the store's events say; it is kept across pages, so it starts clean.
@@ -150,6 +152,8 @@ export class ProjectPage {
     canvas.dataset.moved = [...draft.cameras.keys()].join(",");
     canvas.dataset.versionId = String(store.version?.id ?? "");
     canvas.dataset.editable = String(store.editable);
+    this.root.dataset.role = store.role ?? "";
+    this.jobStatus.canCancel = store.canWrite;
   }
 
   async loadMembers() {
@@ -201,7 +205,8 @@ export class ProjectPage {
     const banner = this.root.querySelector("#banner");
     const { readOnly, version, project } = this.store;
     const readOnlyText = `Viewing v${version?.id} read-only; the head is v${project.head_version_id}.`;
-    const message = text ?? (readOnly ? readOnlyText : "");
+    const viewerText = "You are a viewer of this project: you can look, not change (ask an owner for the editor role).";
+    const message = text ?? (readOnly ? readOnlyText : this.store.canWrite ? "" : viewerText);
     banner.textContent = message;
     banner.hidden = !message;
     if (readOnly && !text) {

@@ -34,15 +34,18 @@ class FakeApi:
     `older` gives earlier versions' cameras (version id -> cameras; default: the head's);
     `compare` overrides the answer of GET .../versions/{vid}/compare (default: the distances
     between the two versions' camera centres, as if the server had aligned them); `stray` adds
-    far points to the scene's."""
+    far points to the scene's; `role` is the caller's; `refuse_edits` answers 403 to saving an
+    edit set, as the server does once the caller's role became viewer."""
 
     def __init__(self, head: int = 1, older: dict[int, list[dict]] | None = None,
-                 compare: list[dict] | None = None, stray: list[list[float]] = ()) -> None:
+                 compare: list[dict] | None = None, stray: list[list[float]] = (),
+                 role: str = "owner", refuse_edits: bool = False) -> None:
         self.cameras = [camera(i, float(i - 1)) for i in range(1, 6)] + [camera(6, None, False)]
         self.pairs = {(1, 2): 100, (2, 3): 80, (3, 4): 120, (4, 5): 60, (1, 3): 30, (2, 4): 40, (3, 5): 50}
         self.head = head
         self.older = older or {}
         self.compare_answer = compare
+        self.role, self.refuse_edits = role, refuse_edits
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
@@ -69,7 +72,7 @@ class FakeApi:
 
     def answer(self, method: str, path: str, request) -> tuple[int, object]:
         project = {"id": 1, "name": "fake", "description": "", "head_version_id": self.head,
-                   "created_at": "2026-01-01T00:00:00Z", "role": "owner"}
+                   "created_at": "2026-01-01T00:00:00Z", "role": self.role}
         routes = {
             ("POST", "/auth/token"): lambda: {"access_token": "fake", "token_type": "bearer"},
             ("GET", "/projects"): lambda: [project],
@@ -96,6 +99,8 @@ class FakeApi:
                          for (a, b), n in self.pairs.items()]
         if path.endswith("/thumbnail"):
             return 200, PNG
+        if path.startswith("/projects/1/edits") and method in ("POST", "PUT") and self.refuse_edits:
+            return 403, {"detail": "your role in project 1 is viewer; this needs editor"}
         if path == "/projects/1/edits" and method == "POST":
             self.edit = {**request.post_data_json, "id": 1, "revision": 1, "updated_by": "fake-user",
                          "updated_at": "2026-01-01T00:00:00Z"}

@@ -70,3 +70,59 @@ def test_fit_frames_the_cameras(page, stray):
     assert 4.0 * scale >= max(width, height) / 3, (scale, width, height)
     assert abs(cx - 2.0) * scale < width / 4  # centred on the cameras, not on the stray points
     shot(page, f"team-fit-{len(stray)}")
+
+
+# Every control that changes the project; a viewer must find each disabled or hidden.
+WRITE_CONTROLS = ["#apply-button", "#preview-button", "#undo", "#redo", "#flag-button", "#place-button",
+                  "#reset-button", "#delete-matching", "#keep-matching", "#rule-select", "#fov-slider",
+                  "#range-slider", "#upload-form button[type=submit]", "#upload-form input[type=file]",
+                  "#reconstruct-button", "#version-list button[data-action=restore]", "#member-form button"]
+
+
+def usable(page, selector: str) -> list[str]:
+    """The elements of a selector a user could operate: visible and enabled."""
+    return page.evaluate("""s => [...document.querySelectorAll(s)]
+        .filter((e) => e.getClientRects().length && getComputedStyle(e).visibility !== 'hidden'
+                       && !e.disabled && !e.closest('[hidden], details:not([open]) > :not(summary)'))
+        .map((e) => e.id || e.textContent || e.tagName)""", selector)
+
+
+def open_all_panels(page) -> None:
+    page.evaluate("document.querySelectorAll('details').forEach((d) => { d.open = true; })")
+
+
+def test_a_viewer_gets_no_control_it_cannot_use(page):
+    fake = FakeApi(head=2, role="viewer")
+    open_fake(page, fake)
+    open_all_panels(page)
+    page.locator("#strip .thumb[data-id='2']").click()  # a selection would enable the sliders
+    page.wait_for_selector("#version-list li[data-version-id='1']", state="attached")
+    for selector in WRITE_CONTROLS:
+        assert usable(page, selector) == [], selector
+    assert "viewer" in page.inner_text("#banner")
+    box = page.locator("#scene").bounding_box()
+    cx, cy, scale = view(page)
+    start = (box["x"] + box["width"] / 2 + (1.0 - cx) * scale, box["y"] + box["height"] / 2 + cy * scale)
+    page.mouse.move(*start)
+    page.mouse.down()
+    page.mouse.move(start[0] + 60, start[1] + 20, steps=4)
+    page.mouse.up()
+    assert page.get_attribute("#scene", "data-moved") == ""
+    assert not [e for e in fake.log if e[0] in ("POST", "PUT", "DELETE") and "/projects/" in e[1]]
+    shot(page, "team-viewer")
+
+
+def test_a_drag_the_server_refuses_is_undone_on_screen(page, console):
+    """The page thinks it may edit, the server says 403 (the role was lowered meanwhile): the
+    camera goes back, a notice says the change was not kept, and the controls become a viewer's."""
+    console.allow.append("403")
+    fake = FakeApi(refuse_edits=True)
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='4']").click()
+    page.locator("#scene").focus()
+    page.keyboard.press("Shift+ArrowRight")
+    assert "4" in page.get_attribute("#scene", "data-moved").split(",")
+    page.wait_for_function("document.querySelector('#scene').dataset.moved === ''")
+    notice = page.locator("#notice")
+    assert "not kept" in notice.inner_text() and "viewer" in notice.inner_text()
+    assert usable(page, "#apply-button") == [] and page.get_attribute("#scene", "data-editable") == "false"
