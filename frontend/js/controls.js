@@ -5,7 +5,7 @@ const FORM_FIELDS = "input, textarea, select, [contenteditable]";
 const PAN_SHARE = 0.1; // Alt+arrow pans by this share of the view's width
 
 // page: { flush() (save and preview now), apply() (apply the edit set and map again) }
-export function bindControls(root, { store, draft, editor, selection, page }, signal) {
+export function bindControls(root, { store, draft, editor, selection, page, notify }, signal) {
   const $ = (id) => root.querySelector(`#${id}`);
   const on = (id, handler) => $(id).addEventListener("click", handler, { signal });
   const fov = $("fov-slider");
@@ -22,6 +22,10 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
   const showPreview = async () => {
     $("preview-panel").open = true;
     await page.flush();
+    const n = store.preview?.pairs_to_delete?.length ?? 0;
+    notify(draft.empty ? "Nothing to preview: move cameras or delete pairs first."
+      : `The rule would delete ${n} ${n === 1 ? "pair" : "pairs"} (listed in Preview); they are deleted ` +
+        "when you Run reconstruction.");
     $("cut-counter").scrollIntoView({ block: "nearest" });
     $("preview-panel").querySelector("summary").focus();
   };
@@ -87,7 +91,7 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
         "reset-button", "delete-matching", "keep-matching", "rule-select"]) $(id).disabled = !editable;
       $("undo").disabled ||= !draft.undoStack.length;
       $("redo").disabled ||= !draft.redoStack.length;
-      $("reconstruct-button").disabled = store.locked || !store.canWrite;
+      $("reconstruct-button").disabled = store.locked || !store.canWrite || !store.cameras.length;
       fov.disabled = range.disabled = !editable || !poses.length;
       $("rule-select").value = draft.rule;
       if (poses.length) {

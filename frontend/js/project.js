@@ -227,6 +227,10 @@ export class ProjectPage {
   // "Run reconstruction": save the edit set, apply it with remap, follow the job.
   async apply() {
     if (!this.editor.canEdit() || !this.sync) return;
+    if (this.draft.cameras.size === 0 && this.draft.deletePairs.size === 0) {
+      this.notify("Nothing to apply: move cameras or delete pairs first (no version is made).", "warning");
+      return;
+    }
     await this.sync.flush();
     if (this.sync.editId === null) await this.sync.save();
     try {

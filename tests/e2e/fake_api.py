@@ -101,6 +101,8 @@ class FakeApi:
             return 200, PNG
         if path.startswith("/projects/1/edits") and method in ("POST", "PUT") and self.refuse_edits:
             return 403, {"detail": "your role in project 1 is viewer; this needs editor"}
+        if path == "/projects/1/reconstruct" and method == "POST":
+            return 409, {"detail": "a job of project 1 is queued or running"}
         if path == "/projects/1/edits" and method == "POST":
             self.edit = {**request.post_data_json, "id": 1, "revision": 1, "updated_by": "fake-user",
                          "updated_at": "2026-01-01T00:00:00Z"}
@@ -133,16 +135,18 @@ class FakeApi:
         placed = {c["image_id"]: (c["x"], c["y"]) for c in self.cameras if c["x"] is not None}
         placed.update({c["image_id"]: (c["x"], c["y"]) for c in self.edit["cameras"]})
         moved = {c["image_id"] for c in self.edit["cameras"]}
-        cut = {tuple(sorted(p)) for p in self.edit["delete_pairs"]}
+        reasons = {tuple(sorted(p)): ["manual"] for p in self.edit["delete_pairs"]}
         for a, b in self.pairs:
             if (a in moved or b in moved) and math.dist(placed[a], placed[b]) > CUT_DISTANCE:
-                cut.add((a, b))
-        kept = [p for p in self.pairs if p not in cut]
-        return {"pairs_to_delete": [list(p) for p in sorted(cut)],
+                reasons.setdefault((a, b), ["placement", "relative_pose"])  # as the default rule's
+        cut = sorted(reasons)
+        kept = [p for p in self.pairs if p not in reasons]
+        by_test = {t: sum(t in r for r in reasons.values()) for t in ("placement", "relative_pose", "manual")}
+        return {"pairs_to_delete": [list(p) for p in cut],
                 "components_before": components(self.pairs),
                 "components_after": components(kept, {i for p in self.pairs for i in p}),
-                "removed_by_test": {"fake": len(cut)}, "kept_to_connect": [],
-                "reasons": [{"pair": list(p), "tests": ["fake"]} for p in sorted(cut)]}
+                "removed_by_test": by_test, "kept_to_connect": [],
+                "reasons": [{"pair": list(p), "tests": reasons[p]} for p in cut]}
 
 
 def version_of(path: str) -> int:

@@ -126,3 +126,78 @@ def test_a_drag_the_server_refuses_is_undone_on_screen(page, console):
     notice = page.locator("#notice")
     assert "not kept" in notice.inner_text() and "viewer" in notice.inner_text()
     assert usable(page, "#apply-button") == [] and page.get_attribute("#scene", "data-editable") == "false"
+
+
+def test_reconstruct_from_scratch_is_named_apart_and_confirmed(page, console):
+    console.allow.append("409")
+    fake = FakeApi(head=2)
+    open_fake(page, fake)
+    page.locator("#images-panel summary").click()
+    scratch = page.locator("#reconstruct-button")
+    assert scratch.inner_text() == "Reconstruct from scratch"
+    assert page.inner_text("#apply-button") == "Run reconstruction"
+    questions = []
+
+    def answer(dialog, accept):
+        questions.append(dialog.message)
+        dialog.accept() if accept else dialog.dismiss()
+
+    page.once("dialog", lambda d: answer(d, False))
+    scratch.click()
+    assert questions and "from scratch" in questions[0] and "v2" in questions[0]
+    assert ("POST", "/api/v1/projects/1/reconstruct") not in fake.log  # dismissed: nothing queued
+    page.once("dialog", lambda d: answer(d, True))
+    scratch.click()
+    page.wait_for_selector("#notice:has-text('Could not start the reconstruction')")
+    assert ("POST", "/api/v1/projects/1/reconstruct") in fake.log and len(questions) == 2
+
+
+def test_an_empty_apply_says_nothing_to_apply_and_sends_nothing(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.get_by_role("button", name="Run reconstruction").click()
+    page.wait_for_selector("#notice:has-text('Nothing to apply')")
+    assert not [e for e in fake.log if e[0] == "POST" and "/edits" in e[1]]
+
+
+def test_the_estimate_is_dropped_once_the_server_answers_and_the_cuts_are_grouped(page):
+    """While the save is under way only the estimate counts (the old server list is not shown
+    beside it); once the server answers, its count, its red lines and its list grouped by camera,
+    each reason in words, with no estimate left."""
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='5']").click()
+    page.locator("#scene").focus()
+    for _ in range(3):
+        page.keyboard.press("Shift+ArrowRight")  # 1.5 units: (3, 5) is cut by the server
+    page.wait_for_selector("#cut-counter[data-state=ready][data-count='1']")
+    stale = page.evaluate("""() => {
+        document.querySelector('#scene').dispatchEvent(
+            new KeyboardEvent('keydown', {key: 'ArrowRight', shiftKey: true, bubbles: true}));
+        const c = document.querySelector('#cut-counter');
+        const details = document.querySelector('#preview-details').innerText;
+        return {shown: c.querySelector('.count').textContent, details};
+    }""")
+    assert stale["shown"].startswith("≈") and "Updating" in stale["details"]
+    assert not any(ch.isdigit() for ch in stale["details"]), stale  # no old server figure beside the estimate
+    page.wait_for_selector("#cut-counter[data-state=ready][data-count='2']")  # 2 units: (4, 5) too
+    counter = page.locator("#cut-counter")
+    assert counter.get_attribute("data-estimate") == "" and page.inner_text("#cut-counter .count") == "2"
+    assert page.get_attribute("#scene", "data-red-lines") == "2"
+    groups = page.locator("#preview-details .cut-group")
+    assert [g.get_attribute("data-camera") for g in groups.all()] == ["5"]
+    assert groups.first.locator("summary").inner_text() == "0005.jpg (#5): 2 pairs cut"
+    groups.first.locator("summary").click()
+    rows = groups.first.locator("li").all_inner_texts()
+    assert len(rows) == 2 and all("do not land where the placement puts them" in r for r in rows)
+    summary = page.inner_text("#preview-details p")
+    assert "add up to more than the total" in summary and "placement" in summary
+    shot(page, "team-cut-preview")
+
+
+def test_reconstruct_from_scratch_is_disabled_without_images(page):
+    fake = FakeApi()
+    fake.cameras, fake.pairs = [], {}
+    open_fake(page, fake)
+    page.locator("#images-panel summary").click()
+    assert page.locator("#reconstruct-button").is_disabled()
