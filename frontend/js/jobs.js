@@ -59,6 +59,16 @@ export class JobStatus {
     this.cancel.hidden = TERMINAL.has(job.state) || !!job.cancel_requested || !this.canCancel;
   }
 
+  // Forget the job (leaving its project): the bar says so, as on a fresh page.
+  clear() {
+    this.stop();
+    this.job = null;
+    for (const key of ["jobId", "state", "stage", "progress", "kind", "tone"]) delete this.root.dataset[key];
+    this.text.textContent = "No job.";
+    this.bar.hidden = true;
+    this.cancel.hidden = true;
+  }
+
   showText(text) {
     this.text.textContent = text;
   }

@@ -28,6 +28,7 @@ export class UploadPanel {
       this.form.reset();
       this.onUploaded(images);
     } catch (error) {
+      this.bar.hidden = true; // no full bar beside a failure
       this.status.textContent = `Upload failed: ${error.message}`;
     }
   }

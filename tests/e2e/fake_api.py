@@ -35,17 +35,17 @@ class FakeApi:
     `compare` overrides the answer of GET .../versions/{vid}/compare (default: the distances
     between the two versions' camera centres, as if the server had aligned them); `stray` adds
     far points to the scene's; `role` is the caller's; `refuse_edits` answers 403 to saving an
-    edit set, as the server does once the caller's role became viewer."""
+    edit set, as the server does once the caller's role became viewer; `jobs` are the project's."""
 
     def __init__(self, head: int = 1, older: dict[int, list[dict]] | None = None,
                  compare: list[dict] | None = None, stray: list[list[float]] = (),
-                 role: str = "owner", refuse_edits: bool = False) -> None:
+                 role: str = "owner", refuse_edits: bool = False, jobs: list[dict] = ()) -> None:
         self.cameras = [camera(i, float(i - 1)) for i in range(1, 6)] + [camera(6, None, False)]
         self.pairs = {(1, 2): 100, (2, 3): 80, (3, 4): 120, (4, 5): 60, (1, 3): 30, (2, 4): 40, (3, 5): 50}
         self.head = head
         self.older = older or {}
         self.compare_answer = compare
-        self.role, self.refuse_edits = role, refuse_edits
+        self.role, self.refuse_edits, self.jobs = role, refuse_edits, list(jobs)
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
@@ -72,14 +72,14 @@ class FakeApi:
 
     def answer(self, method: str, path: str, request) -> tuple[int, object]:
         project = {"id": 1, "name": "fake", "description": "", "head_version_id": self.head,
-                   "created_at": "2026-01-01T00:00:00Z", "role": self.role}
+                   "created_at": "2026-01-01T00:00:00Z", "role": self.role, "owner": "fake-owner"}
         routes = {
             ("POST", "/auth/token"): lambda: {"access_token": "fake", "token_type": "bearer"},
             ("GET", "/projects"): lambda: [project],
             ("GET", "/projects/1"): lambda: project,
             ("GET", "/projects/1/versions"): self.versions,
             ("GET", "/projects/1/members"): lambda: [{"username": "fake-user", "role": "owner"}],
-            ("GET", "/projects/1/jobs"): lambda: [],
+            ("GET", "/projects/1/jobs"): lambda: self.jobs,
             ("GET", "/projects/1/edits"): lambda: [self.edit] if self.edit else [],
             ("GET", "/projects/1/edits/1"): lambda: self.edit,
             ("GET", "/projects/1/edits/1/preview"): self.preview,

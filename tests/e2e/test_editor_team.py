@@ -201,3 +201,36 @@ def test_reconstruct_from_scratch_is_disabled_without_images(page):
     open_fake(page, fake)
     page.locator("#images-panel summary").click()
     assert page.locator("#reconstruct-button").is_disabled()
+
+
+FAILED_JOB = {"id": 7, "project_id": 1, "kind": "apply", "state": "failed", "stage": "done", "progress": 0.4,
+              "message": "", "error": "the worker stopped", "version_id": None,
+              "created_at": "2026-01-01T00:00:00Z", "started_at": None, "finished_at": None}
+
+
+def test_nothing_carries_over_from_one_project_to_the_next(page):
+    """An error notice, the status bar's job and a typed username stay with their project."""
+    fake = FakeApi(jobs=[FAILED_JOB])
+    open_fake(page, fake)
+    page.wait_for_selector("#status[data-job-id='7']")
+    assert "failed" in page.inner_text("#job-text") and "done" not in page.inner_text("#job-text")
+    page.locator("#strip .thumb[data-id='2']").click()
+    page.locator("#scene").focus()
+    page.keyboard.press("p")  # placing a placed camera: an info notice
+    page.wait_for_selector("#notice:visible")
+    page.wait_for_selector("#members-panel:not([hidden])")
+    page.locator("#members-panel summary").click()
+    page.locator("#member-form input[name=username]").fill("somebody")
+    page.evaluate("location.hash = '#/'")
+    page.wait_for_selector("body[data-ready=projects]")
+    assert page.locator("#notice").is_hidden()
+    assert page.inner_text("#job-text") == "No job." and page.get_attribute("#status", "data-job-id") is None
+    card = page.inner_text("#project-list li[data-project-id='1']")
+    assert "your role: owner" in card and "owner: fake-owner" in card
+    fake.role = "viewer"  # an owner changed our role: the list shows it without a reload
+    page.wait_for_selector("#project-list li:has-text('your role: viewer')", timeout=20_000)
+    fake.jobs = []
+    page.evaluate("location.hash = '#/p/1'")
+    page.wait_for_selector("body[data-ready='1/1']")
+    assert page.input_value("#member-form input[name=username]") == ""
+    assert page.inner_text("#job-text") == "No job."

@@ -59,6 +59,7 @@ class ProjectOut(Out):
     head_version_id: int | None
     created_at: datetime
     role: Role | None = None
+    owner: str | None = None  # the first owner's username, for the project list
 
 
 class MemberIn(In):
