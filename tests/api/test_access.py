@@ -40,6 +40,7 @@ def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict) -> list
         ("DELETE", f"{p}/edits/{eid}", EDITOR, {}),
         ("GET", f"{p}/edits/{eid}/preview", VIEWER, {}),
         ("POST", f"{p}/edits/{eid}/apply", EDITOR, {"json": {"remap": True}}),
+        ("POST", f"{p}/edits/{eid}/rebase", EDITOR, {"headers": {"If-Match": "1"}}),
     ]
 
 

@@ -85,6 +85,7 @@ def apply(session: Session, submit: Callable[[int], None], project: Project, row
         raise InvalidInput(f"nothing to apply: edit set {row.id} moves no camera and deletes no pair")
     if row.base_version_id != project.head_version_id:
         raise Conflict(f"edit set {row.id} is based on version {row.base_version_id}, but the head is "
-                       f"version {project.head_version_id}; rebase it first")
+                       f"version {project.head_version_id}; rebase it onto the head first "
+                       f"(POST .../edits/{row.id}/rebase)")
     params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body, "remap": remap}
     return jobs.queue(session, submit, project, "apply", user_id, params, row.base_version_id)

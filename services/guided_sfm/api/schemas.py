@@ -165,6 +165,13 @@ class EditSetOut(Out):
     updated_at: datetime
 
 
+class RebaseOut(EditSetOut):
+    """The edit set on the head and what was carried onto it; `dropped` items are {kind: camera |
+    flag | delete_pair, image_ids, reason}."""
+
+    report: dict[str, Any]
+
+
 class ReasonOut(Out):
     pair: list[int]
     tests: list[str]
