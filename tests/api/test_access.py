@@ -44,6 +44,7 @@ def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict) -> list
         ("GET", f"{p}/webhooks", OWNER, {}),
         ("DELETE", f"{p}/webhooks/1", OWNER, {}),
         ("GET", f"{p}/webhooks/1/deliveries", OWNER, {}),
+        ("POST", f"{p}/edits/{eid}/rebase", EDITOR, {"headers": {"If-Match": "1"}}),
         ("DELETE", f"{p}/edits/{eid}", EDITOR, {}),  # last: the routes above need the edit set
     ]
 

@@ -34,6 +34,15 @@ def test_members(client):
     assert client.get(f"/api/v1/projects/{pid}", headers=bob).status_code == 404
 
 
+def test_the_project_list_names_the_role_and_the_owner(client):
+    alice, bob = signup(client, "alice"), signup(client, "bob")
+    pid = make_project(client, alice)
+    add_member(client, alice, pid, "bob", "viewer")
+    [listed] = client.get("/api/v1/projects", headers=bob).json()
+    assert (listed["id"], listed["role"], listed["owner"]) == (pid, "viewer", "alice")
+    assert client.get(f"/api/v1/projects/{pid}", headers=alice).json()["owner"] == "alice"
+
+
 def test_last_owner_stays(client, session):
     alice = signup(client, "alice")
     pid = make_project(client, alice)

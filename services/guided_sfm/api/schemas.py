@@ -113,6 +113,7 @@ class ProjectOut(Out):
     head_version_id: int | None
     created_at: datetime
     role: Role | None = None
+    owner: str | None = None  # the first owner's username, for the project list
 
 
 class MemberIn(In):
@@ -216,6 +217,13 @@ class EditSetOut(Out):
     tolerances: dict[str, float]
     updated_by: str | None
     updated_at: datetime
+
+
+class RebaseOut(EditSetOut):
+    """The edit set on the head and what was carried onto it; `dropped` items are {kind: camera |
+    flag | delete_pair, image_ids, reason}."""
+
+    report: dict[str, Any]
 
 
 class ReasonOut(Out):
