@@ -39,6 +39,7 @@ export class ProjectPage {
   async open(projectId, versionId = null) {
     const { store } = this;
     store.project = await get(`/projects/${projectId}`);
+    store.role = store.project.role ?? null;
     const vid = versionId ?? store.project.head_version_id;
     store.readOnly = versionId !== null && versionId !== store.project.head_version_id;
     view ??= new SceneView(this.root.querySelector("#scene"));
@@ -115,6 +116,7 @@ export class ProjectPage {
       if (kind !== "load") this.sync?.changed();
     };
     for (const name of ["draft", "selection", "preview", "display"]) store.on(name, () => this.refresh());
+    store.on("role", () => { this.showBanner(null); this.refresh(); });
   }
 
   // The scene view draws what the store's events say; it is kept across pages, so it starts clean.
@@ -123,12 +125,16 @@ export class ProjectPage {
     view.poseOf = (cam) => editor.poseOf(cam);
     view.setLines([]);
     view.setArrows([]);
-    store.showFrusta = view.showFrusta; // the frusta toggle outlives the page, like the view
+    store.showFrusta = view.showFrusta; // the display toggles outlive the page, like the view
+    store.showOrder = view.showOrder;
     Object.assign(view.canvas.dataset, { step: String(editor.step), rotateStep: String(editor.rotateStep) });
     store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
     store.on("lines", (lines) => view.setLines(lines));
     store.on("arrows", (arrows) => view.setArrows(arrows));
-    store.on("display", () => { view.showFrusta = store.showFrusta; view.requestDraw(); });
+    store.on("display", () => {
+      Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder });
+      view.requestDraw();
+    });
     store.on("view", (command) => view.command(command));
   }
 
@@ -146,6 +152,8 @@ export class ProjectPage {
     canvas.dataset.moved = [...draft.cameras.keys()].join(",");
     canvas.dataset.versionId = String(store.version?.id ?? "");
     canvas.dataset.editable = String(store.editable);
+    this.root.dataset.role = store.role ?? "";
+    this.jobStatus.canCancel = store.canWrite;
   }
 
   async loadMembers() {
@@ -181,7 +189,8 @@ export class ProjectPage {
     const done = await this.jobStatus.watch(job.id);
     this.setLocked(false);
     if (done.state === "succeeded") this.notify(done.message || `Job ${done.id} (${done.kind}) finished.`);
-    else this.notify(`Job ${done.id} ${done.state}: ${done.error ?? done.message ?? ""}`, "error");
+    else if (done.state === "cancelled") this.notify(`Job ${done.id} (${done.kind}) was cancelled.`, "warning");
+    else this.notify(`Job ${done.id} failed: ${done.error ?? done.message ?? ""}`, "error");
     if (!this.abort.signal.aborted) this.reopen();
   }
 
@@ -196,7 +205,8 @@ export class ProjectPage {
     const banner = this.root.querySelector("#banner");
     const { readOnly, version, project } = this.store;
     const readOnlyText = `Viewing v${version?.id} read-only; the head is v${project.head_version_id}.`;
-    const message = text ?? (readOnly ? readOnlyText : "");
+    const viewerText = "You are a viewer of this project: you can look, not change (ask an owner for the editor role).";
+    const message = text ?? (readOnly ? readOnlyText : this.store.canWrite ? "" : viewerText);
     banner.textContent = message;
     banner.hidden = !message;
     if (readOnly && !text) {
@@ -217,6 +227,10 @@ export class ProjectPage {
   // "Run reconstruction": save the edit set, apply it with remap, follow the job.
   async apply() {
     if (!this.editor.canEdit() || !this.sync) return;
+    if (this.draft.cameras.size === 0 && this.draft.deletePairs.size === 0) {
+      this.notify("Nothing to apply: move cameras or delete pairs first (no version is made).", "warning");
+      return;
+    }
     await this.sync.flush();
     if (this.sync.editId === null) await this.sync.save();
     try {

@@ -21,6 +21,7 @@ from guided_sfm.db.session import session_scope
 from guided_sfm.errors import Conflict
 
 log = logging.getLogger(__name__)
+DONE = "done"  # every ended job's stage (design.md); its state says how it ended
 REPORT_SECONDS = 1.0  # progress writes are throttled to about one a second
 
 
@@ -53,7 +54,7 @@ def claim(session: Session, job_id: int) -> bool:
 def finish(session: Session, job_id: int, state: str, *, message: str = "", error: str | None = None,
            version_id: int | None = None, timings: dict[str, Any] | None = None) -> bool:
     """running -> succeeded/failed/cancelled; False (nothing changed) if someone already ended it."""
-    values: dict[str, Any] = {"state": state, "finished_at": utcnow(), "stage": state, "error": error,
+    values: dict[str, Any] = {"state": state, "finished_at": utcnow(), "stage": DONE, "error": error,
                               "timings": timings}
     if message:
         values["message"] = message
@@ -69,7 +70,7 @@ def request_cancel(session: Session, job: Job) -> None:
     """A queued job is cancelled at once; a running one gets the flag its worker checks."""
     if job.state == "queued":
         session.execute(update(Job).where(Job.id == job.id, Job.state == "queued").values(
-            state="cancelled", stage="cancelled", finished_at=utcnow(),
+            state="cancelled", stage=DONE, finished_at=utcnow(),
             message="cancelled before it started"))
     elif job.state == "running":
         session.execute(update(Job).where(Job.id == job.id).values(cancel_requested=True))

@@ -42,6 +42,10 @@ class Settings:
     login_attempts_per_address: int = 30  # logins and sign-ups per client address per window
     login_window_seconds: float = 300.0
     trusted_proxies: str = ""  # comma-separated peers whose X-Forwarded-For is believed
+    webhook_allow_private: bool = False  # webhooks to loopback/private addresses (tests, intranets)
+    webhook_retry_seconds: float = 10.0  # first retry after a failed delivery; doubles each time
+    webhook_attempts: int = 6  # deliveries given up after this many tries
+    webhook_timeout_seconds: float = 5.0  # per delivery request
     orphan_grace_seconds: float = 600.0  # files without rows this old are removed (reconcile)
     job_base_seconds: float = 3600.0  # a job's time limit: this much ...
     job_seconds_per_image: float = 60.0  # ... plus this per image of its project
@@ -57,6 +61,7 @@ class Settings:
             "database_url": env.get(PREFIX + "DATABASE_URL") or f"sqlite:///{data_dir / 'guided_sfm.db'}",
             "broker_url": env.get(PREFIX + "BROKER_URL") or "filesystem://",
             "open_signup": _bool(env, "OPEN_SIGNUP", True),
+            "webhook_allow_private": _bool(env, "WEBHOOK_ALLOW_PRIVATE", False),
             "secret_key": env.get(PREFIX + "SECRET_KEY") or None,
             "trusted_proxies": env.get(PREFIX + "TRUSTED_PROXIES") or "",
             **{name: _number(env, name.upper(), default) for name, default in _numeric_defaults()},

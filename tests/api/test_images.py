@@ -96,6 +96,21 @@ def test_bad_upload_is_refused_and_nothing_stored(small_client, session, case):
     assert_nothing_stored(session, settings, pid)
 
 
+@pytest.mark.parametrize("case", ["not an image", "corrupt jpeg", "broken zip"])
+def test_an_upload_error_names_no_server_path(small_client, case):
+    """The detail names the files as they were sent: no data dir, temp dir or staging name."""
+    import tempfile
+
+    client, settings = small_client
+    headers = signup(client, "alice")
+    pid = make_project(client, headers)
+    detail = post(client, headers, pid, BAD_UPLOADS[case][0]).json()["detail"]
+    sent = BAD_UPLOADS[case][0][0][1][0]
+    assert detail.startswith(f"{sent}: "), detail
+    for secret in (str(settings.data_dir), tempfile.gettempdir(), "upload-", "staging"):
+        assert secret not in detail, detail
+
+
 def test_declared_body_over_the_limit_is_413_before_reading(small_client):
     client, _ = small_client
     headers = signup(client, "alice")

@@ -79,8 +79,12 @@ def delete(session: Session, row: EditSetRow) -> None:
 def apply(session: Session, submit: Callable[[int], None], project: Project, row: EditSetRow,
           user_id: int, remap: bool) -> Job:
     """Queue the edit set's application; 409 unless it is based on the head (rebase it first)."""
+    if not row.body.get("cameras") and not row.body.get("delete_pairs"):
+        # An empty draft would make a version identical to its base: no job, no version.
+        raise InvalidInput(f"nothing to apply: edit set {row.id} moves no camera and deletes no pair")
     if row.base_version_id != project.head_version_id:
         raise Conflict(f"edit set {row.id} is based on version {row.base_version_id}, but the head is "
-                       f"version {project.head_version_id}; rebase it first")
+                       f"version {project.head_version_id}; rebase it onto the head first "
+                       f"(POST .../edits/{row.id}/rebase)")
     params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body, "remap": remap}
     return jobs.queue(session, submit, project, "apply", user_id, params, row.base_version_id)

@@ -53,7 +53,7 @@ def _keep(store: ArtifactStore, project_id: int, upload: BinaryIO, limit: int) -
 
 def _check_archive(path: Path, limit: int) -> None:
     """Refuse an unsafe or incomplete workspace zip before a job is queued."""
-    with uploads.open_zip(path) as archive:
+    with uploads.open_zip(path, "the workspace zip") as archive:
         _members(archive, uploads.Budget(limit))
 
 
@@ -98,7 +98,7 @@ def run(context: JobContext, work: Path) -> Produced:
 def _extract(upload: Path, work: Path, limit: int, limit_mpx: int) -> list[NewImage]:
     budget = uploads.Budget(limit)
     images = []
-    with uploads.open_zip(upload) as archive:
+    with uploads.open_zip(upload, "the workspace zip") as archive:
         for info, path in _members(archive, budget):
             if path.parts[0] == "images" and len(path.parts) > 2:
                 raise BadUpload(f"{info.filename}: images/ must be flat (no sub-folders)")

@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm import jobs
-from guided_sfm.actions import apply_edit, import_workspace, reconstruct
+from guided_sfm.actions import apply_edit, import_workspace, reconstruct, webhooks
 from guided_sfm.actions.context import JobContext, Produced
 from guided_sfm.actions.publish import publish
 from guided_sfm.core.errors import Cancelled, DomainError
@@ -138,7 +138,8 @@ def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: J
 def _end(sessions: sessionmaker[Session], job_id: int, state: str, clock: StageClock, **values: str) -> str:
     values = {key: without_paths(text) for key, text in values.items()}  # users see these; paths stay here
     with session_scope(sessions) as session:
-        jobs.finish(session, job_id, state, timings=clock.report(), **values)
+        if jobs.finish(session, job_id, state, timings=clock.report(), **values):
+            webhooks.job_finished(session, session.get(Job, job_id), state, error=values.get("error"))
         session.commit()
     log.info("job %s ended %s %s", job_id, state, values)
     return state

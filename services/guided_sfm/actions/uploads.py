@@ -69,11 +69,12 @@ def extract(archive: zipfile.ZipFile, info: zipfile.ZipInfo, target: Path, budge
         copy_limited(source, target, budget, info.filename)
 
 
-def open_zip(path: Path) -> zipfile.ZipFile:
+def open_zip(path: Path, shown: str) -> zipfile.ZipFile:
+    """The zip at path, named in errors by the name it was uploaded as (never the temp file's)."""
     try:
         return zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as exc:
-        raise BadUpload(f"{path.name}: not a readable zip file") from exc
+        raise BadUpload(f"{shown}: not a readable zip file") from exc
 
 
 def check_image(path: Path, name: str, max_mpx: int | None = None, thumbnail: Path | None = None) -> NewImage:
@@ -95,7 +96,9 @@ def check_image(path: Path, name: str, max_mpx: int | None = None, thumbnail: Pa
         raise BadUpload(f"{name}: {_pixels_named(exc)} pixels, over the limit of {max_mpx or '?'} Mpx "
                         f"({PREFIX}MAX_IMAGE_MPX); refused before decoding") from exc
     except (PIL.Image.UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
-        raise BadUpload(f"{name}: not a readable JPEG or PNG image ({exc})") from exc
+        # Pillow's message may hold the staging path; the client sees only the name it sent.
+        reason = str(exc).replace(str(path), name).replace(str(path.parent), "")
+        raise BadUpload(f"{name}: not a readable JPEG or PNG image ({reason})") from exc
     if kind not in FORMATS:
         raise BadUpload(f"{name}: {kind} images are not accepted; upload JPEG or PNG")
     return NewImage(name, width, height, str(taken)[:32] if taken else None)
@@ -144,7 +147,7 @@ def stage_images(uploads: list[tuple[str, BinaryIO]], staging: Path, limit: int,
         raw = staging.parent / (staging.name + ".zip")
         copy_limited(uploads[0][1], raw, Budget(limit), uploads[0][0])
         try:
-            return _unzip_images(raw, staging, budget, max_mpx)
+            return _unzip_images(raw, uploads[0][0], staging, budget, max_mpx)
         finally:
             raw.unlink(missing_ok=True)
     images = []
@@ -157,8 +160,9 @@ def stage_images(uploads: list[tuple[str, BinaryIO]], staging: Path, limit: int,
     return images
 
 
-def _unzip_images(raw: Path, staging: Path, budget: Budget, max_mpx: int | None) -> list[NewImage]:
-    with open_zip(raw) as archive:
+def _unzip_images(raw: Path, shown: str, staging: Path, budget: Budget,
+                  max_mpx: int | None) -> list[NewImage]:
+    with open_zip(raw, PurePosixPath(shown.replace("\\", "/")).name) as archive:
         entries = zip_entries(archive, budget)
         if not entries:
             raise BadUpload("the zip holds no files")

@@ -14,7 +14,18 @@ from guided_sfm.api import errors, health
 from guided_sfm.api.headers import SecurityHeaders
 from guided_sfm.api.health import Readiness
 from guided_sfm.api.limits import BodyLimit
-from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, users, versions
+from guided_sfm.api.routes import (
+    auth,
+    edits,
+    images,
+    jobs,
+    members,
+    projects,
+    tokens,
+    users,
+    versions,
+    webhooks,
+)
 from guided_sfm.api.throttle import Throttle
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
@@ -36,7 +47,7 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.readiness = readiness or dict
     app.state.throttle = Throttle(settings)
     errors.install(app)
-    for module in (health, users, auth, projects, members, images, jobs, versions, edits):
+    for module in (health, users, auth, tokens, projects, members, images, jobs, versions, edits, webhooks):
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(BodyLimit, upload_limit=settings.max_upload_bytes)
     app.add_middleware(SecurityHeaders, index_html=FRONTEND / "index.html")

@@ -47,6 +47,60 @@ class TokenOut(Out):
     token_type: str = "bearer"
 
 
+class PasswordChange(In):
+    old_password: Text = Field(max_length=256)
+    new_password: Text = Field(min_length=8, max_length=256)
+
+
+class AccessTokenCreate(In):
+    name: Text = Field(min_length=1, max_length=100)
+    scope: Literal["read", "write"]
+    projects: list[DbId] | None = Field(default=None, max_length=1000)  # None: every project
+    expires_days: int | None = Field(default=None, ge=1, le=3650)  # None: until revoked
+
+
+class AccessTokenOut(Out):
+    id: int
+    name: str
+    scope: str
+    projects: list[int] | None
+    created_at: datetime
+    expires_at: datetime | None
+
+
+class AccessTokenCreated(AccessTokenOut):
+    token: str  # the secret, shown this once
+
+
+class WebhookIn(In):
+    url: Text = Field(min_length=1, max_length=2000)
+    events: list[Literal["job_finished", "version_created", "edit_submitted", "edit_reviewed"]] = Field(
+        min_length=1)
+    secret: Text | None = Field(default=None, min_length=16, max_length=200)  # None: one is generated
+
+
+class WebhookOut(Out):
+    id: int
+    url: str
+    events: list[str]
+    created_at: datetime
+
+
+class WebhookCreated(WebhookOut):
+    secret: str  # shown this once; each delivery's X-Guided-SFM-Signature is an HMAC with it
+
+
+class DeliveryOut(Out):
+    id: int
+    event: str
+    at: datetime
+    status_code: int | None
+    attempts: int
+    ok: bool = False
+    state: str  # pending (retries left), ok, failed (given up)
+    answer: str | None
+
+
 class ProjectCreate(In):
     name: Text = Field(min_length=1, max_length=200)
     description: Text = Field(default="", max_length=10_000)
@@ -59,6 +113,7 @@ class ProjectOut(Out):
     head_version_id: int | None
     created_at: datetime
     role: Role | None = None
+    owner: str | None = None  # the first owner's username, for the project list
 
 
 class MemberIn(In):
@@ -162,6 +217,13 @@ class EditSetOut(Out):
     tolerances: dict[str, float]
     updated_by: str | None
     updated_at: datetime
+
+
+class RebaseOut(EditSetOut):
+    """The edit set on the head and what was carried onto it; `dropped` items are {kind: camera |
+    flag | delete_pair, image_ids, reason}."""
+
+    report: dict[str, Any]
 
 
 class ReasonOut(Out):

@@ -237,13 +237,18 @@ class Workspace:
             elif source.is_file():
                 shutil.copy2(source, target)
 
-    def compare(self, other: Workspace) -> list[dict]:
+    def compare(self, other: Workspace, edited: set[str] = frozenset()) -> list[dict]:
         """Per camera of the other's largest model: how far it moved and turned from this one's,
-        after alignment."""
+        after alignment on the cameras not named in `edited` (those an edit between them moved)."""
         models_a, models_b = self.load_models(), other.load_models()
         if not models_a or not models_b:
             raise EmptyModel("both versions need a sparse model to be compared")
-        return colmap_model.compare_models(models_a[0], models_b[0])
+        return colmap_model.compare_models(models_a[0], models_b[0], edited)
+
+    def touched_names(self) -> set[str]:
+        """touched_images by image name."""
+        names = self.image_names()
+        return {names[i] for i in self.touched_images() if i in names}
 
 
 def pruning_record(outcome: PruneOutcome, names: dict[int, str]) -> dict:

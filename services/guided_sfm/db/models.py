@@ -24,6 +24,8 @@ from sqlalchemy.orm import Mapped, mapped_column, relationship
 from guided_sfm.db.base import Base
 
 ROLES = ("viewer", "editor", "owner")
+TOKEN_SCOPES = ("read", "write")
+WEBHOOK_EVENTS = ("job_finished", "version_created", "edit_submitted", "edit_reviewed")
 JOB_KINDS = ("reconstruct", "apply", "import")
 JOB_STATES = ("queued", "running", "succeeded", "failed", "cancelled")
 ACTIVE_STATES = ("queued", "running")
@@ -57,7 +59,26 @@ class User(Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     username: Mapped[str] = mapped_column(String(64), unique=True)
     password_hash: Mapped[str] = mapped_column(String(255))
+    # Session tokens carry the epoch they were issued in; a password change moves it on.
+    token_epoch: Mapped[int] = mapped_column(Integer, default=0, server_default="0")
     created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+
+class AccessToken(Base):
+    """A personal access token: only its SHA-256 digest is kept (the secret is shown once)."""
+
+    __tablename__ = "access_tokens"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"), index=True)
+    name: Mapped[str] = mapped_column(String(100))
+    scope: Mapped[str] = mapped_column(String(8))  # read | write
+    projects: Mapped[list[int] | None] = mapped_column(JSON)  # None: every project of the user
+    digest: Mapped[str] = mapped_column(String(64), unique=True)
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    expires_at: Mapped[datetime | None] = mapped_column(Timestamp())
+
+    user: Mapped[User] = relationship(lazy="joined")
 
 
 class Project(Base):
@@ -138,6 +159,36 @@ class EditSetRow(Base):
     updated_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
 
     updated_by: Mapped[User | None] = relationship(lazy="joined")
+
+
+class Webhook(Base):
+    """A project's subscription: events are POSTed to `url`, signed with `secret`."""
+
+    __tablename__ = "webhooks"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    url: Mapped[str] = mapped_column(String(2000))
+    events: Mapped[list[str]] = mapped_column(JSON)
+    secret: Mapped[str] = mapped_column(String(200))  # kept readable: each delivery is signed with it
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+
+class WebhookDelivery(Base):
+    """One event for one webhook: an outbox row written with the change, sent and retried after."""
+
+    __tablename__ = "webhook_deliveries"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    webhook_id: Mapped[int] = mapped_column(ForeignKey("webhooks.id", ondelete="CASCADE"), index=True)
+    event: Mapped[str] = mapped_column(String(32))
+    body: Mapped[str] = mapped_column(Text)  # the exact bytes signed and sent, as text
+    at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    state: Mapped[str] = mapped_column(String(16), default="pending", index=True)  # pending|ok|failed
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    next_attempt_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    status_code: Mapped[int | None] = mapped_column(Integer)
+    answer: Mapped[str | None] = mapped_column(Text)  # the receiver's reply or the error, cut short
 
 
 class Job(Base):

@@ -21,11 +21,11 @@ def token(form: Annotated[OAuth2PasswordRequestForm, Depends()], session: Sessio
     throttle.check("user", form.username)
     throttle.record("address", address)
     user = queries.user_by_name(session, form.username) if "\x00" not in form.username else None
-    user_id, stored_hash = (user.id, user.password_hash) if user else (None, None)
+    user_id, stored_hash, epoch = (user.id, user.password_hash, user.token_epoch) if user else (None, None, 0)
     session.close()  # Argon2 takes a while and much memory: hold no connection (nor lock) meanwhile
     if not security.verify_password(form.password, stored_hash):
         throttle.record("user", form.username)
         raise Unauthorized("wrong username or password")
     throttle.forget("user", form.username)
     return TokenOut(access_token=security.issue_token(user_id, settings.secret_key or "",
-                                                      settings.token_minutes))
+                                                      settings.token_minutes, epoch))

@@ -4,7 +4,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Header, Response
 
-from guided_sfm.actions import edit_sets, version_data
+from guided_sfm.actions import edit_sets, rebase, version_data
 from guided_sfm.api.deps import (
     CurrentUser,
     EditorEditSet,
@@ -15,7 +15,7 @@ from guided_sfm.api.deps import (
     ViewerEditSet,
     ViewerProject,
 )
-from guided_sfm.api.schemas import ApplyIn, EditSetIn, EditSetOut, JobOut, PreviewOut
+from guided_sfm.api.schemas import ApplyIn, EditSetIn, EditSetOut, JobOut, PreviewOut, RebaseOut
 from guided_sfm.db import queries
 from guided_sfm.db.models import EditSetRow, Job, Version
 
@@ -68,3 +68,12 @@ def preview(row: ViewerEditSet, session: SessionDep, store: StoreDep) -> dict:
 def apply(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
           submit: SubmitDep, body: ApplyIn | None = None) -> Job:
     return edit_sets.apply(session, submit, project, row, user.id, (body or ApplyIn()).remap)
+
+
+@router.post("/{eid}/rebase", response_model=RebaseOut)
+def rebase_onto_head(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
+                     store: StoreDep, response: Response,
+                     if_match: Annotated[str | None, Header()] = None) -> RebaseOut:
+    """Carry the edit set onto the head (If-Match: its revision); the report says what was kept."""
+    row, report = rebase.rebase(session, store, project, row, if_match, user.id)
+    return RebaseOut(**out(row, response).model_dump(), report=report)
