@@ -69,3 +69,14 @@ def test_the_sqlite_file_is_readable_by_its_owner_only(tmp_path):
     engine.dispose()
     for path in tmp_path.iterdir():
         assert os.stat(path).st_mode & 0o777 == 0o600, path
+
+
+def test_the_scene_is_tagged_and_gzipped(client, reconstructed):
+    s = reconstructed
+    url = f"/api/v1/projects/{s.pid}/versions/{s.vid}/scene"
+    first = client.get(url, headers={**s.owner, "Accept-Encoding": "gzip"})
+    assert first.status_code == 200 and first.headers["content-encoding"] == "gzip"
+    assert first.json()["cameras"]  # httpx undoes the gzip
+    again = client.get(url, headers={**s.owner, "If-None-Match": first.headers["etag"]})
+    assert again.status_code == 304 and again.content == b""
+    assert client.get(url, headers={**s.owner, "If-None-Match": '"other"'}).status_code == 200
