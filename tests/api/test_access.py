@@ -58,7 +58,7 @@ def editor_status(method: str, path: str) -> int:
     if path.endswith(("/import", "/cancel", "/restore")):
         return 409
     if method == "POST":
-        return 202 if path.endswith("/reconstruct") else 201
+        return {"/reconstruct": 202, "/rebase": 200}.get(path[path.rindex("/"):], 201)
     return {"GET": 200, "PUT": 200, "DELETE": 204}[method]
 
 
