@@ -40,6 +40,18 @@ def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict) -> list
         ("DELETE", f"{p}/edits/{eid}", EDITOR, {}),
         ("GET", f"{p}/edits/{eid}/preview", VIEWER, {}),
         ("POST", f"{p}/edits/{eid}/apply", EDITOR, {"json": {"remap": True}}),
+    ] + team_routes(p, vid, eid)
+
+
+def team_routes(p: str, vid: int, eid: int) -> list[tuple]:
+    """The team review routes (design.md v1.1): viewers read the log; editors submit, review and
+    publish; owners change settings."""
+    return [
+        ("PATCH", p, OWNER, {"json": {"description": "changed"}}),
+        ("GET", f"{p}/activity", VIEWER, {}),
+        ("POST", f"{p}/edits/{eid}/submit", EDITOR, {}),
+        ("POST", f"{p}/edits/{eid}/reviews", EDITOR, {"json": {"verdict": "approve"}}),
+        ("POST", f"{p}/versions/{vid}/publish", EDITOR, {}),
     ]
 
 

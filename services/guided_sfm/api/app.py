@@ -13,6 +13,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from guided_sfm.api import errors
+from guided_sfm.api.routes import activity as activity_routes
 from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, tokens, users, versions
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
@@ -51,6 +52,8 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.submit = submit
     errors.install(app)
     for module in (users, auth, tokens, projects, members, images, jobs, versions, edits):
+        app.include_router(module.router, prefix=API_PREFIX)
+    for module in (activity_routes,):  # team review (v1.1)
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(UploadLimit, limit=settings.max_upload_bytes)
 

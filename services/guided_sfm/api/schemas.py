@@ -84,6 +84,14 @@ class ProjectOut(Out):
     head_version_id: int | None
     created_at: datetime
     role: Role | None = None
+    require_approval: bool = False
+    published_version_id: int | None = None  # the team's accepted result
+
+
+class ProjectPatch(In):
+    name: Text | None = Field(default=None, min_length=1, max_length=200)
+    description: Text | None = Field(default=None, max_length=10_000)
+    require_approval: bool | None = None
 
 
 class MemberIn(In):
@@ -176,6 +184,16 @@ class EditSetIn(In):
     tolerances: dict[Text, float] = Field(default_factory=dict)
 
 
+class ReviewOut(Out):
+    id: int
+    reviewer: str | None
+    verdict: str
+    comment: str
+    revision: int
+    created_at: datetime
+    review_state: str | None = None  # the edit set's state after this review (in the POST answer)
+
+
 class EditSetOut(Out):
     id: int
     revision: int
@@ -187,6 +205,9 @@ class EditSetOut(Out):
     tolerances: dict[str, float]
     updated_by: str | None
     updated_at: datetime
+    author: str | None = None
+    review_state: str = "draft"
+    reviews: list[ReviewOut] = Field(default_factory=list)
 
 
 class ReasonOut(Out):
@@ -205,6 +226,7 @@ class PreviewOut(Out):
 
 class ApplyIn(In):
     remap: bool = True
+    message: Text | None = Field(default=None, max_length=2000)  # the version's note, in the author's words
 
 
 class CompareCameraOut(Out):
@@ -215,3 +237,24 @@ class CompareCameraOut(Out):
 
 class CompareOut(Out):
     cameras: list[CompareCameraOut]
+
+
+# Team review (design.md, contract additions v1.1)
+class ActivityOut(Out):
+    id: int
+    at: datetime
+    user: str | None
+    action: str
+    target: dict[str, Any]
+    detail: dict[str, Any]
+    token: str | None = None  # the personal access token's name, when the change came through one
+
+
+class ActivityPage(Out):
+    items: list[ActivityOut]
+    next_before: int | None
+
+
+class ReviewIn(In):
+    verdict: Literal["approve", "request_changes"]
+    comment: Text = Field(default="", max_length=10_000)
