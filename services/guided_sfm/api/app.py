@@ -15,6 +15,8 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 from guided_sfm.api import errors
 from guided_sfm.api.routes import activity as activity_routes
 from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, tokens, users, versions
+from guided_sfm.api.routes import comments as comment_routes
+from guided_sfm.api.routes import presence as presence_routes
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -53,7 +55,7 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     errors.install(app)
     for module in (users, auth, tokens, projects, members, images, jobs, versions, edits):
         app.include_router(module.router, prefix=API_PREFIX)
-    for module in (activity_routes,):  # team review (v1.1)
+    for module in (activity_routes, comment_routes, presence_routes):  # team review (v1.1)
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(UploadLimit, limit=settings.max_upload_bytes)
 

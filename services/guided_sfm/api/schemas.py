@@ -258,3 +258,60 @@ class ActivityPage(Out):
 class ReviewIn(In):
     verdict: Literal["approve", "request_changes"]
     comment: Text = Field(default="", max_length=10_000)
+
+
+CommentKind = Literal["image", "pair", "version", "edit_set", "project"]
+
+
+class CommentTarget(In):
+    kind: CommentKind
+    id: DbId | None = None  # image, version or edit set id
+    image_ids: list[DbId] | None = Field(default=None, min_length=2, max_length=2)  # a pair
+
+
+class CommentIn(In):
+    target: CommentTarget
+    body: Text = Field(min_length=1, max_length=10_000)  # plain text, shown as text
+    parent_id: DbId | None = None
+
+
+class CommentPatch(In):
+    body: Text | None = Field(default=None, min_length=1, max_length=10_000)
+    resolved: bool | None = None
+
+
+class CommentOut(Out):
+    id: int
+    author: str | None
+    created_at: datetime
+    updated_at: datetime
+    body: str
+    target: dict[str, Any]
+    parent_id: int | None
+    resolved: bool
+
+
+class PresenceIn(In):
+    edit_set_id: DbId | None = None
+    version_id: DbId | None = None
+
+
+class PresenceOut(Out):
+    username: str
+    edit_set_id: int | None
+    version_id: int | None
+    seen_at: datetime
+
+
+class NotificationOut(Out):
+    id: int
+    at: datetime
+    kind: str
+    project_id: int
+    target: dict[str, Any]
+    text: str
+    read: bool
+
+
+class NotificationsRead(In):
+    ids: list[DbId] = Field(max_length=1000)
