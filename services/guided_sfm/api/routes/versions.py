@@ -71,7 +71,8 @@ def publish(version: EditorVersion, project: EditorProject, session: SessionDep,
 
 @router.get("/{vid}/export", response_class=FileResponse)
 def export(version: ViewerVersion, store: StoreDep,
-           format: Annotated[Literal["colmap", "ply"], Query()] = "colmap") -> FileResponse:
+           format: Annotated[Literal["colmap", "ply", "colmap_text", "nerfstudio"], Query()] = "colmap"
+           ) -> FileResponse:
     path, name, media_type = export_action.export(store, version, format)
     return FileResponse(path, media_type=media_type, filename=name,
                         background=BackgroundTask(path.unlink, missing_ok=True))
