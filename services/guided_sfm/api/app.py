@@ -13,11 +13,14 @@ from sqlalchemy.orm import Session, sessionmaker
 from guided_sfm.api import errors
 from guided_sfm.api.limits import BodyLimit
 from guided_sfm.api.routes import (
+    activity,
     auth,
+    comments,
     edits,
     images,
     jobs,
     members,
+    presence,
     projects,
     tokens,
     users,
@@ -42,6 +45,8 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.submit = submit
     errors.install(app)
     for module in (users, auth, tokens, projects, members, images, jobs, versions, edits, webhooks):
+        app.include_router(module.router, prefix=API_PREFIX)
+    for module in (activity, comments, presence):  # team review (v1.1)
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(BodyLimit, upload_limit=settings.max_upload_bytes)
 
