@@ -9,7 +9,7 @@ from __future__ import annotations
 from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 
-from guided_sfm.actions import notifications
+from guided_sfm.actions import notifications, webhooks
 from guided_sfm.actions.activity import Actor, record
 from guided_sfm.db.models import EditSetRow, Membership, Project, Review
 from guided_sfm.errors import Conflict, Forbidden
@@ -44,6 +44,8 @@ def submit(session: Session, project: Project, row: EditSetRow, actor: Actor) ->
                          {"kind": "edit_set", "id": row.id}, text)
     record(session, project.id, actor, "submit", {"kind": "edit_set", "id": row.id},
            {"revision": row.revision}, commit=False)
+    webhooks.emit(session, project.id, "edit_submitted",
+                  {"edit_set_id": row.id, "revision": row.revision, "by": actor.username})
     session.commit()
     session.refresh(row)
     return row
@@ -65,6 +67,9 @@ def review(session: Session, project: Project, row: EditSetRow, actor: Actor, ve
                          {"kind": "edit_set", "id": row.id}, text)
     record(session, project.id, actor, "review", {"kind": "edit_set", "id": row.id},
            {"verdict": verdict, "revision": row.revision, "review_id": entry.id}, commit=False)
+    webhooks.emit(session, project.id, "edit_reviewed",
+                  {"edit_set_id": row.id, "revision": row.revision, "verdict": verdict,
+                   "comment": comment, "by": actor.username})
     session.commit()
     session.refresh(row)
     return entry
