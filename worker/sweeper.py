@@ -15,6 +15,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm import jobs
 from guided_sfm.actions.reconcile import reconcile_store
+from guided_sfm.actions.runner import log_end
 from guided_sfm.db.session import make_sessionmaker, session_scope
 from guided_sfm.settings import Settings
 from worker.presence import touch_presence
@@ -28,6 +29,8 @@ def sweep(sessions: sessionmaker[Session], settings: Settings, submit: Callable[
         resend = jobs.lost_messages(session, settings.requeue_seconds)
     for job_id in requeued + resend:
         submit(job_id)
+    for job_id in failed:
+        log_end(sessions, job_id)
     if requeued or failed or resend:
         log.warning("sweep: jobs whose worker stopped: requeued %s, failed %s; resent lost messages %s",
                     requeued, failed, resend)

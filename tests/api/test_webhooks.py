@@ -153,3 +153,22 @@ def test_two_senders_never_take_the_same_attempt(committed_database):
         lost = webhooks.claim(first, delivery_id, utcnow(), lease=60)
     engine.dispose()
     assert seen is not None and won is not None and won.attempts == 1 and lost is None
+
+
+def test_submit_and_review_are_queued_for_subscribers(client, session, reconstructed):
+    s = reconstructed
+    ben = signup(client, "ben")
+    add_member(client, s.owner, s.pid, "ben", "editor")
+    session.add(Webhook(project_id=s.pid, url="http://a/", events=["edit_submitted", "edit_reviewed"],
+                        secret="s" * 16))
+    session.commit()
+    eid = client.post(f"/api/v1/projects/{s.pid}/edits", json={"base_version_id": s.vid},
+                      headers=s.owner).json()["id"]
+    assert client.post(f"/api/v1/projects/{s.pid}/edits/{eid}/submit", headers=s.owner).status_code == 200
+    reviewed = client.post(f"/api/v1/projects/{s.pid}/edits/{eid}/reviews", headers=ben,
+                           json={"verdict": "request_changes", "comment": "wrong wall"})
+    assert reviewed.status_code == 201
+    sent = [json.loads(row.body) for row in session.query(WebhookDelivery).order_by(WebhookDelivery.id)]
+    assert [(b["event"], b["data"]["edit_set_id"]) for b in sent] == [("edit_submitted", eid),
+                                                                      ("edit_reviewed", eid)]
+    assert sent[1]["data"]["verdict"] == "request_changes" and sent[1]["data"]["by"] == "ben"

@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm import jobs
-from guided_sfm.actions import apply_edit, import_workspace, reconstruct, webhooks
+from guided_sfm.actions import activity, apply_edit, import_workspace, reconstruct, webhooks
 from guided_sfm.actions.context import JobContext, Produced
 from guided_sfm.actions.publish import publish
 from guided_sfm.core.errors import Cancelled, DomainError
@@ -106,9 +106,21 @@ def run_job(sessions: sessionmaker[Session], settings: Settings, job_id: int) ->
     heartbeat = Heartbeat(sessions, job_id, token, settings.heartbeat_seconds, limit)
     heartbeat.start()
     try:
-        return _run(sessions, settings, job, token)
+        state = _run(sessions, settings, job, token)
     finally:
         heartbeat.stop()
+    log_end(sessions, job_id)
+    return state
+
+
+def log_end(sessions: sessionmaker[Session], job_id: int) -> None:
+    """The job's end in the activity log and its author's notifications (the job stays ended if
+    this fails: the log is written after the outcome, never instead of it)."""
+    try:
+        with session_scope(sessions) as session:
+            activity.job_ended(session, job_id)
+    except Exception:  # a lost log line must never turn an ended job into a crash
+        log.warning("job %s: its end could not be logged", job_id, exc_info=True)
 
 
 def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: JobToken) -> str:

@@ -15,11 +15,14 @@ from guided_sfm.api.headers import SecurityHeaders
 from guided_sfm.api.health import Readiness
 from guided_sfm.api.limits import BodyLimit
 from guided_sfm.api.routes import (
+    activity,
     auth,
+    comments,
     edits,
     images,
     jobs,
     members,
+    presence,
     projects,
     tokens,
     users,
@@ -48,6 +51,8 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.throttle = Throttle(settings)
     errors.install(app)
     for module in (health, users, auth, tokens, projects, members, images, jobs, versions, edits, webhooks):
+        app.include_router(module.router, prefix=API_PREFIX)
+    for module in (activity, comments, presence):  # team review (v1.1)
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(BodyLimit, upload_limit=settings.max_upload_bytes)
     app.add_middleware(SecurityHeaders, index_html=FRONTEND / "index.html")

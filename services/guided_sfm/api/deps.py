@@ -11,6 +11,7 @@ from fastapi.security import OAuth2PasswordBearer
 from sqlalchemy.orm import Session
 
 from guided_sfm.actions import lookup, tokens
+from guided_sfm.actions.activity import Actor
 from guided_sfm.actions.lookup import InProject
 from guided_sfm.api import security
 from guided_sfm.api.throttle import Throttle
@@ -186,3 +187,12 @@ def page(limit: Annotated[int | None, Query(ge=1, le=MAX_PAGE)] = None,
 
 PageDep = Annotated[Page, Depends(page)]
 EditorJob = Annotated[Job, Depends(job_with("editor"))]
+
+
+def actor(request: Request, user: CurrentUser) -> Actor:
+    """The caller as the activity log names them (with the access token's name, if one was used)."""
+    token = personal_token(request)
+    return Actor.of(user, token.name if token is not None else None)
+
+
+ActorDep = Annotated[Actor, Depends(actor)]

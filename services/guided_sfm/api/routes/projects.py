@@ -2,8 +2,9 @@
 
 from fastapi import APIRouter, Request, Response
 
-from guided_sfm.actions import projects
+from guided_sfm.actions import project_settings, projects
 from guided_sfm.api.deps import (
+    ActorDep,
     CurrentUser,
     OwnerProject,
     SessionDep,
@@ -11,7 +12,7 @@ from guided_sfm.api.deps import (
     ViewerProject,
     personal_token,
 )
-from guided_sfm.api.schemas import ProjectCreate, ProjectOut
+from guided_sfm.api.schemas import ProjectCreate, ProjectOut, ProjectPatch
 from guided_sfm.db import queries
 from guided_sfm.db.models import Project
 from guided_sfm.errors import Forbidden
@@ -46,6 +47,14 @@ def list_projects(request: Request, session: SessionDep, user: CurrentUser) -> l
 @router.get("/{pid}", response_model=ProjectOut)
 def get_project(project: ViewerProject, session: SessionDep, user: CurrentUser) -> ProjectOut:
     return out(session, project, user.id)
+
+
+@router.patch("/{pid}", response_model=ProjectOut)
+def change_settings(body: ProjectPatch, project: OwnerProject, session: SessionDep,
+                    actor: ActorDep) -> ProjectOut:
+    """Owners change the name, description and `require_approval` (apply then waits for approval)."""
+    changed = project_settings.change(session, project, body.model_dump(exclude_unset=True), actor)
+    return out(changed, "owner")
 
 
 @router.delete("/{pid}", status_code=204)
