@@ -27,4 +27,7 @@ def test_liveness_and_readiness_name_what_is_down(settings, sessions):
         assert response.status_code == 503 and "database does not answer" in response.json()["detail"]
         response = client.get("/api/v1/health/ready")
         assert response.status_code == 503 and response.json()["down"] == ["database"], response.text
+        response = client.post("/api/v1/users", json={"username": "x", "password": "long enough pw"})
+        assert response.status_code == 503 and "database is unavailable" in response.json()["detail"]
+        assert response.headers["retry-after"]
     engine.dispose()

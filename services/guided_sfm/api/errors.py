@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
-from sqlalchemy.exc import DataError
+from sqlalchemy.exc import DataError, InterfaceError, OperationalError
 
 from guided_sfm import errors
 from guided_sfm.core.errors import (
@@ -61,7 +61,16 @@ async def unstorable_value(_request: Request, exc: DataError) -> JSONResponse:
     return JSONResponse({"detail": f"a value cannot be stored: {reason}"}, status_code=422)
 
 
+async def database_unavailable(_request: Request, exc: OperationalError | InterfaceError) -> JSONResponse:
+    """The database went away (restart, network) or stayed locked: the request may be retried."""
+    reason = errors.without_paths(str(getattr(exc, "orig", exc)).splitlines()[0][:200])
+    return JSONResponse({"detail": f"the database is unavailable ({reason}); retry shortly"},
+                        status_code=503, headers={"Retry-After": "5"})
+
+
 def install(app: FastAPI) -> None:
     app.add_exception_handler(DomainError, domain_error)  # type: ignore[arg-type]
     app.add_exception_handler(RequestValidationError, validation_error)  # type: ignore[arg-type]
     app.add_exception_handler(DataError, unstorable_value)  # type: ignore[arg-type]
+    for unavailable in (OperationalError, InterfaceError):
+        app.add_exception_handler(unavailable, database_unavailable)  # type: ignore[arg-type]
