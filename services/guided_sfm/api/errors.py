@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
@@ -68,9 +70,19 @@ async def database_unavailable(_request: Request, exc: OperationalError | Interf
                         status_code=503, headers={"Retry-After": "5"})
 
 
+async def disk_full(request: Request, exc: OSError) -> JSONResponse:
+    """A full disk is the server's state, not a crash: 507, and the request stored nothing (every
+    write goes through staging first). Any other OSError stays a 500."""
+    if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        raise exc
+    return JSONResponse({"detail": "the server's storage is full; nothing was stored, try again later"},
+                        status_code=507)
+
+
 def install(app: FastAPI) -> None:
     app.add_exception_handler(DomainError, domain_error)  # type: ignore[arg-type]
     app.add_exception_handler(RequestValidationError, validation_error)  # type: ignore[arg-type]
     app.add_exception_handler(DataError, unstorable_value)  # type: ignore[arg-type]
+    app.add_exception_handler(OSError, disk_full)  # type: ignore[arg-type]
     for unavailable in (OperationalError, InterfaceError):
         app.add_exception_handler(unavailable, database_unavailable)  # type: ignore[arg-type]
