@@ -14,6 +14,7 @@ from collections.abc import Callable
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm import jobs
+from guided_sfm.actions import webhooks
 from guided_sfm.actions.reconcile import reconcile_store
 from guided_sfm.actions.runner import log_end
 from guided_sfm.db.session import make_sessionmaker, session_scope
@@ -31,6 +32,9 @@ def sweep(sessions: sessionmaker[Session], settings: Settings, submit: Callable[
         submit(job_id)
     for job_id in failed:
         log_end(sessions, job_id)
+    if failed:
+        with session_scope(sessions) as session:
+            webhooks.jobs_failed_by_sweep(session, failed)
     if requeued or failed or resend:
         log.warning("sweep: jobs whose worker stopped: requeued %s, failed %s; resent lost messages %s",
                     requeued, failed, resend)

@@ -19,7 +19,9 @@ def team(client, reconstructed):
     for name, role in (("ana", "editor"), ("ben", "editor"), ("vic", "viewer")):
         people[name] = signup(client, name)
         add_member(client, s.owner, s.pid, name, role)
-    eid = client.post(api(s, "/edits"), json={"base_version_id": s.vid}, headers=people["ana"]).json()["id"]
+    pair = client.get(api(s, f"/versions/{s.vid}/pairs"), headers=s.owner).json()[0]
+    body = {"base_version_id": s.vid, "delete_pairs": [[pair["image_id1"], pair["image_id2"]]]}
+    eid = client.post(api(s, "/edits"), json=body, headers=people["ana"]).json()["id"]
     return s, people, eid
 
 
@@ -90,8 +92,8 @@ def test_a_new_revision_puts_an_approval_back_to_draft(client, team):
     client.patch(api(s), json={"require_approval": True}, headers=s.owner)
     client.post(api(s, f"/edits/{eid}/submit"), headers=people["ana"])
     assert review(client, s, people["ben"], eid).status_code == 201
-    saved = client.put(api(s, f"/edits/{eid}"), json={"base_version_id": s.vid, "flags": []},
-                       headers={**people["ana"], "If-Match": "1"})
+    kept = {"base_version_id": s.vid, "delete_pairs": state(client, s, eid)["delete_pairs"], "flags": []}
+    saved = client.put(api(s, f"/edits/{eid}"), json=kept, headers={**people["ana"], "If-Match": "1"})
     assert saved.status_code == 200 and saved.json()["review_state"] == "draft"
     gated = client.post(api(s, f"/edits/{eid}/apply"), json={"remap": False}, headers=people["ana"])
     assert gated.status_code == 409

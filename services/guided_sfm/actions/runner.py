@@ -94,10 +94,13 @@ def time_limit(sessions: sessionmaker[Session], settings: Settings, project_id: 
 
 
 def run_job(sessions: sessionmaker[Session], settings: Settings, job_id: int) -> str | None:
-    """Run a queued job; returns its final state, or None when it was not queued (a duplicate)."""
+    """Run the next queued job in the queue's order (jobs.QUEUE_ORDER), which is not always the job
+    whose message woke the worker: each message runs one job, so every job still runs once. Returns
+    the job's final state, or None when nothing was queued (a duplicate message)."""
     with session_scope(sessions) as session:
-        if not jobs.claim(session, job_id):
-            log.info("job %s is not queued any more; nothing to do", job_id)
+        woken_by, job_id = job_id, jobs.claim_next(session)
+        if job_id is None:
+            log.info("job %s's message found no queued job; nothing to do", woken_by)
             return None
         job = session.get(Job, job_id)
         session.expunge(job)
