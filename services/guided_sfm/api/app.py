@@ -14,6 +14,7 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 
 from guided_sfm.api import errors
 from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, users, versions
+from guided_sfm.api.schemas import InvalidOut
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -44,7 +45,8 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     """The API; `submit(job_id)` enqueues a committed job (worker.celery_app.submitter in production)."""
     settings = settings.with_secret()
     app = FastAPI(title="Guided SfM", version="1", openapi_url="/openapi.json",
-                  docs_url="/docs", redoc_url=None)
+                  docs_url="/docs", redoc_url=None,  # 422 as errors.py answers it, not FastAPI's list
+                  responses={422: {"model": InvalidOut, "description": "Invalid request"}})
     app.state.settings = settings
     app.state.sessions = sessions or make_sessionmaker(settings)
     app.state.store = ArtifactStore(settings.artifacts_dir)
