@@ -1,10 +1,12 @@
 // Entry point: hash routes (#/, #/p/ID, #/p/ID/v/VID), sign-in, the project list, notices.
 import { ApiError, get, post, session, setUnauthorizedHandler, signIn, signUp } from "./api.js";
+import { Inbox } from "./inbox.js";
 import { JobStatus } from "./jobs.js";
 import { ProjectPage } from "./project.js";
 
 const $ = (id) => document.getElementById(id);
 const jobStatus = new JobStatus($("status"));
+const inbox = new Inbox($("inbox-button"), $("inbox"));
 let page = null;
 
 function notify(text, kind = "info") {
@@ -31,9 +33,24 @@ function crumbs(items) {
   }));
 }
 
-async function route() {
+const LIST_REFRESH_MS = 15000; // the project list looks again for projects you were added to
+
+// Nothing of the page left behind carries over to the next: notices, the job, typed fields.
+function forgetPage() {
   page?.close();
   page = null;
+  clearTimeout(showProjects.timer);
+  $("notice").hidden = true;
+  jobStatus.clear();
+  for (const form of document.querySelectorAll("#view-project form")) form.reset();
+  $("upload-status").textContent = "";
+  $("upload-progress").hidden = true;
+}
+
+async function route() {
+  forgetPage();
+  if (session.token) inbox.start();
+  else inbox.stop();
   if (!session.token) {
     crumbs([]);
     show("view-auth");
@@ -55,29 +72,38 @@ async function route() {
   }
 }
 
-async function showProjects() {
-  crumbs([["Projects"]]);
-  show("view-projects");
+async function showProjects(first = true) {
+  if (first) {
+    crumbs([["Projects"]]);
+    show("view-projects");
+  }
   const list = $("project-list");
   try {
     const projects = (await get("/projects")) ?? [];
-    list.replaceChildren(...projects.map((p) => {
-      const li = document.createElement("li");
-      const a = document.createElement("a");
-      a.href = `#/p/${p.id}`;
-      a.textContent = p.name;
-      const meta = document.createElement("span");
-      meta.className = "hint";
-      const head = p.head_version_id ? `head v${p.head_version_id}` : "no version yet";
-      meta.textContent = p.description ? `${p.description} · ${head}` : head;
-      li.append(a, meta);
-      return li;
-    }));
+    if (page || !/^#?\/?$/.test(location.hash)) return; // left the list meanwhile
+    list.replaceChildren(...projects.map(projectCard));
     if (!projects.length) list.textContent = "No projects yet: create one below.";
     document.body.dataset.ready = "projects";
   } catch (error) {
-    notify(`Could not list the projects: ${error.message}`, "error");
+    if (first) notify(`Could not list the projects: ${error.message}`, "error");
   }
+  clearTimeout(showProjects.timer);
+  showProjects.timer = setTimeout(() => showProjects(false), LIST_REFRESH_MS);
+}
+
+function projectCard(p) {
+  const li = document.createElement("li");
+  li.dataset.projectId = String(p.id);
+  const a = document.createElement("a");
+  a.href = `#/p/${p.id}`;
+  a.textContent = p.name;
+  const meta = document.createElement("span");
+  meta.className = "hint";
+  const head = p.head_version_id ? `head v${p.head_version_id}` : "no version yet";
+  const who = [p.role ? `your role: ${p.role}` : "", p.owner ? `owner: ${p.owner}` : ""].filter(Boolean);
+  meta.textContent = [p.description, head, ...who].filter(Boolean).join(" · ");
+  li.append(a, meta);
+  return li;
 }
 
 $("sign-in-form").addEventListener("submit", async (e) => {

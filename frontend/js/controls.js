@@ -5,7 +5,7 @@ const FORM_FIELDS = "input, textarea, select, [contenteditable]";
 const PAN_SHARE = 0.1; // Alt+arrow pans by this share of the view's width
 
 // page: { flush() (save and preview now), apply() (apply the edit set and map again) }
-export function bindControls(root, { store, draft, editor, selection, page }, signal) {
+export function bindControls(root, { store, draft, editor, selection, page, notify }, signal) {
   const $ = (id) => root.querySelector(`#${id}`);
   const on = (id, handler) => $(id).addEventListener("click", handler, { signal });
   const fov = $("fov-slider");
@@ -22,6 +22,10 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
   const showPreview = async () => {
     $("preview-panel").open = true;
     await page.flush();
+    const n = store.preview?.pairs_to_delete?.length ?? 0;
+    notify(draft.empty ? "Nothing to preview: move cameras or delete pairs first."
+      : `The rule would delete ${n} ${n === 1 ? "pair" : "pairs"} (listed in Preview); they are deleted ` +
+        "when you Run reconstruction.");
     $("cut-counter").scrollIntoView({ block: "nearest" });
     $("preview-panel").querySelector("summary").focus();
   };
@@ -31,6 +35,7 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
     "select-all": () => selection.all(),
     "show-matching": () => toggle("showMatching"),
     "show-frusta": () => toggle("showFrusta"),
+    "show-order": () => toggle("showOrder"),
     "fit-view": () => view({ fit: true }),
     "preview-button": showPreview,
     "apply-button": () => page.apply(),
@@ -64,7 +69,8 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
   function viewKey(e) {
     if (e.ctrlKey || e.metaKey) return false;
     const keys = {
-      m: actions["show-matching"], t: actions["show-frusta"], d: showPreview, 0: () => view({ fit: true }),
+      m: actions["show-matching"], t: actions["show-frusta"], o: actions["show-order"], d: showPreview,
+      0: () => view({ fit: true }),
       "+": () => view({ zoom: 1.25 }), "=": () => view({ zoom: 1.25 }), "-": () => view({ zoom: 0.8 }),
     };
     const handler = keys[e.key.toLowerCase()];
@@ -85,7 +91,7 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
         "reset-button", "delete-matching", "keep-matching", "rule-select"]) $(id).disabled = !editable;
       $("undo").disabled ||= !draft.undoStack.length;
       $("redo").disabled ||= !draft.redoStack.length;
-      $("reconstruct-button").disabled = store.locked;
+      $("reconstruct-button").disabled = store.locked || !store.canWrite || !store.cameras.length;
       fov.disabled = range.disabled = !editable || !poses.length;
       $("rule-select").value = draft.rule;
       if (poses.length) {
@@ -96,6 +102,7 @@ export function bindControls(root, { store, draft, editor, selection, page }, si
       }
       $("show-matching").setAttribute("aria-pressed", String(store.showMatching));
       $("show-frusta").setAttribute("aria-pressed", String(store.showFrusta));
+      $("show-order").setAttribute("aria-pressed", String(store.showOrder));
       root.dataset.selectionCount = String(n);
     },
   };

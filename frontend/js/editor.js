@@ -30,7 +30,8 @@ export class Editor {
 
   canEdit() {
     if (this.store.editable) return true;
-    const why = this.store.readOnly ? "this version is open read-only" : "a job of this project is running";
+    let why = this.store.readOnly ? "this version is open read-only" : "a job of this project is running";
+    if (!this.store.canWrite) why = "you are a viewer of this project (editing needs the editor role)";
     this.notify(`Editing is locked: ${why}.`, "warning");
     return false;
   }

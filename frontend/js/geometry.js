@@ -78,3 +78,43 @@ export const median = (values) => {
 
 export const pairKey = (a, b) => (a < b ? `${a}-${b}` : `${b}-${a}`);
 export const splitKey = (key) => key.split("-").map(Number);
+
+// The view's extent [x0, y0, x1, y1]: the cameras' box (at least minSize wide, minSize being the
+// cameras' typical range) and the central 96% of the points within a margin around it (that
+// range, kept within MARGIN_SHARES of the box's size), so far stray points do not shrink the
+// cameras to a corner (they stay reachable by zooming out); the points' central box when no
+// camera is placed. The same rule as core/geometry.py: view_extent (used by `scene --png`).
+const MARGIN_SHARES = [0.2, 0.5];
+const QUANTILES = [0.02, 0.98];
+
+export function viewExtent(cameraXY, points, minSize = 0) {
+  if (!cameraXY.length) {
+    if (!points.length) return null;
+    const [x0, x1] = quantiles(points, 0, () => true);
+    const [y0, y1] = quantiles(points, 1, () => true);
+    return [x0, y0, x1, y1];
+  }
+  const xs = cameraXY.map((p) => p[0]);
+  const ys = cameraXY.map((p) => p[1]);
+  const half = Math.max(minSize, 1e-9) / 2;
+  const [cx, cy] = [(Math.min(...xs) + Math.max(...xs)) / 2, (Math.min(...ys) + Math.max(...ys)) / 2];
+  let [x0, y0] = [Math.min(...xs, cx - half), Math.min(...ys, cy - half)];
+  let [x1, y1] = [Math.max(...xs, cx + half), Math.max(...ys, cy + half)];
+  const size = Math.max(x1 - x0, y1 - y0);
+  const m = Math.min(Math.max(minSize, MARGIN_SHARES[0] * size), MARGIN_SHARES[1] * size);
+  const near = (i) => points[i] >= x0 - m && points[i] <= x1 + m && points[i + 1] >= y0 - m && points[i + 1] <= y1 + m;
+  const [px0, px1] = quantiles(points, 0, near);
+  const [py0, py1] = quantiles(points, 1, near);
+  if (px0 !== undefined) [x0, x1, y0, y1] = [Math.min(x0, px0), Math.max(x1, px1), Math.min(y0, py0), Math.max(y1, py1)];
+  return [x0, y0, x1, y1];
+}
+
+// The QUANTILES of coordinate `axis` of the flat [x, y, ...] points whose index passes `keep`.
+function quantiles(points, axis, keep) {
+  const values = [];
+  for (let i = 0; i < points.length; i += 2) if (keep(i)) values.push(points[i + axis]);
+  if (!values.length) return [undefined, undefined];
+  const sorted = Float64Array.from(values).sort();
+  const at = (q) => sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
+  return QUANTILES.map(at);
+}

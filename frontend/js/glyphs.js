@@ -101,3 +101,23 @@ export function drawScaleBar(ctx, { width, height, scale, px, ink, background })
   ctx.fillText(`${value} ${value === 1 ? "unit" : "units"}`, x, y - 8 * px);
   return length;
 }
+
+// Small text labels [[text, pose], ...] beside their cameras, skipping any that would overlap
+// one already drawn; returns the drawn ones as [text, sx, sy] (device pixels).
+export function drawLabels(ctx, t, items, { colour, halo, px }) {
+  const drawn = [];
+  const gap = 14 * px;
+  ctx.font = `${10 * px}px system-ui, sans-serif`;
+  ctx.lineWidth = 3 * px;
+  ctx.strokeStyle = halo;
+  ctx.fillStyle = colour;
+  for (const [text, p] of items) {
+    const [sx, sy] = t(p.x, p.y);
+    const [lx, ly] = [sx + 5 * px, sy - 5 * px];
+    if (drawn.some(([, x, y]) => Math.abs(x - lx) < gap && Math.abs(y - ly) < gap)) continue;
+    ctx.strokeText(text, lx, ly);
+    ctx.fillText(text, lx, ly);
+    drawn.push([text, Math.round(lx), Math.round(ly)]);
+  }
+  return drawn;
+}

@@ -15,6 +15,7 @@ export class JobStatus {
     this.timer = 0;
     this.token = 0;
     this.job = null;
+    this.canCancel = true; // false for a viewer of the job's project
   }
 
   // Poll the job; onUpdate(job) runs on every answer; resolves with the job once it is terminal.
@@ -51,14 +52,21 @@ export class JobStatus {
     Object.assign(this.root.dataset, { jobId: String(job.id), state: job.state, stage: job.stage ?? "",
       progress: String(job.progress ?? 0), kind: job.kind });
     this.bar.setAttribute("aria-valuenow", String(percent));
-    this.bar.hidden = false;
+    this.bar.hidden = job.state === "queued"; // no bar (full or empty) before the job starts
     this.fill.style.width = `${percent}%`;
-    const stage = job.stage ? ` · ${job.stage}` : "";
-    const why = job.state === "failed" ? job.error ?? job.message : job.message;
-    const detail = why ? ` · ${why}` : "";
-    this.text.textContent = `Job ${job.id} (${job.kind}): ${job.state}${stage} · ${percent}%${detail}`
-      + timingText(job.timings);
-    this.cancel.hidden = TERMINAL.has(job.state);
+    this.text.textContent = statusText(job, percent);
+    this.root.dataset.tone = job.state === "failed" ? "error" : "plain"; // a cancel is no error
+    this.cancel.hidden = TERMINAL.has(job.state) || !!job.cancel_requested || !this.canCancel;
+  }
+
+  // Forget the job (leaving its project): the bar says so, as on a fresh page.
+  clear() {
+    this.stop();
+    this.job = null;
+    for (const key of ["jobId", "state", "stage", "progress", "kind", "tone"]) delete this.root.dataset[key];
+    this.text.textContent = "No job.";
+    this.bar.hidden = true;
+    this.cancel.hidden = true;
   }
 
   showText(text) {
@@ -74,6 +82,21 @@ export class JobStatus {
       this.showText(`Could not cancel: ${error.message}`);
     }
   }
+}
+
+// "Job 7 (apply): running · map · 40%": the stage and percentage only while it runs (an ended
+// job's stage is "done", its state says how it ended), the queue position while queued.
+function statusText(job, percent) {
+  const head = `Job ${job.id} (${job.kind}): ${job.state}`;
+  let middle = "";
+  if (job.state === "running") {
+    middle = `${job.stage && job.stage !== "done" ? ` · ${job.stage}` : ""} · ${percent}%`;
+    if (job.cancel_requested) middle += " · cancel requested";
+  } else if (job.state === "queued" && job.queue_position) {
+    middle = ` · number ${job.queue_position} in the queue`;
+  }
+  const why = job.state === "failed" ? job.error ?? job.message : job.message;
+  return `${head}${middle}${why ? ` · ${why}` : ""}${timingText(job.timings)}`;
 }
 
 // " · 42 s (extract 9 s, match 25 s, map 8 s), peak 812 MiB" once the job has ended.

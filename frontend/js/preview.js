@@ -88,26 +88,83 @@ export class Preview {
     this.renderDetails(preview);
   }
 
+  // The server's list, grouped by the moved camera each pair belongs to, each pair's reasons in
+  // words. While a change is being saved the old list is not shown: only the estimate counts.
   renderDetails(preview) {
     const list = this.details;
     list.replaceChildren();
+    list.dataset.state = this.store.previewState;
     if (!preview) return;
-    const tests = Object.entries(preview.removed_by_test ?? {}).map(([t, n]) => `${t}: ${n}`).join(", ");
-    const head = document.createElement("p");
-    const kept = (preview.kept_to_connect ?? []).length;
-    head.textContent = `Components: ${preview.components_before} before, ${preview.components_after} after.` +
-      (tests ? ` Removed by test: ${tests}.` : "") +
-      (kept ? ` Kept ${kept} pair(s) only the placement test cut, so no group of images is cut off.` : "");
-    list.append(head);
+    if (this.store.previewState === "stale") {
+      list.append(paragraph("Updating the server's preview…"));
+      return;
+    }
+    list.append(paragraph(summaryText(preview)));
+    const groups = this.groups(preview);
+    for (const [id, rows] of groups) list.append(this.group(id, rows));
+  }
+
+  // camera id -> [[partner id, tests]], the camera being the pair's moved member (the earlier in
+  // capture order when both moved or neither did, as for a manual deletion).
+  groups(preview) {
     const reasons = new Map((preview.reasons ?? []).map((r) => [pairKey(...r.pair), r.tests]));
+    const seq = (id) => this.store.byId.get(id)?.seq ?? id;
+    const groups = new Map();
+    for (const [a, b] of preview.pairs_to_delete.slice(0, MAX_ROWS)) {
+      const [first, second] = seq(a) <= seq(b) ? [a, b] : [b, a];
+      const owner = this.draft.cameras.has(second) && !this.draft.cameras.has(first) ? second : first;
+      const partner = owner === a ? b : a;
+      if (!groups.has(owner)) groups.set(owner, []);
+      groups.get(owner).push([partner, reasons.get(pairKey(a, b)) ?? []]);
+    }
+    return [...groups].sort((x, y) => seq(x[0]) - seq(y[0]));
+  }
+
+  group(id, rows) {
+    const name = (i) => { const c = this.store.byId.get(i); return c ? `${c.name} (#${c.seq + 1})` : `#${i}`; };
+    const box = document.createElement("details");
+    box.className = "cut-group";
+    box.dataset.camera = String(id);
+    const summary = document.createElement("summary");
+    summary.textContent = `${name(id)}: ${rows.length} ${rows.length === 1 ? "pair" : "pairs"} cut`;
     const ul = document.createElement("ul");
-    for (const [a, b] of preview.pairs_to_delete.slice(0, 200)) {
+    for (const [partner, tests] of rows) {
       const li = document.createElement("li");
-      const name = (id) => this.store.byId.get(id)?.name ?? `#${id}`;
-      const why = reasons.get(pairKey(a, b));
-      li.textContent = `${name(a)} – ${name(b)}${why ? ` (${why.join(", ")})` : ""}`;
+      li.dataset.pair = pairKey(id, partner);
+      li.textContent = `with ${name(partner)}: ${tests.map((t) => REASONS[t] ?? t).join("; ") || "cut"}`;
       ul.append(li);
     }
-    list.append(ul);
+    box.append(summary, ul);
+    return box;
   }
+}
+
+const MAX_ROWS = 500;
+
+// Why a pair is cut, in words (the REST reasons' test names, docs/pruning-rule.md).
+const REASONS = {
+  frustum: "their view triangles no longer overlap",
+  placement: "its matched points do not land where the placement puts them",
+  rotation: "the placement turns the cameras too far apart for these matches",
+  relative_pose: "the matches place the two cameras differently from the placement",
+  separates: "it joins two groups the placement separates",
+  manual: "you deleted it",
+};
+
+function paragraph(text) {
+  const p = document.createElement("p");
+  p.textContent = text;
+  return p;
+}
+
+function summaryText(preview) {
+  const total = preview.pairs_to_delete.length;
+  const byTest = Object.entries(preview.removed_by_test ?? {}).filter(([, n]) => n > 0);
+  const tests = byTest.map(([t, n]) => `${n} ${REASONS[t] ?? t}`).join("; ");
+  const sum = byTest.reduce((s, [, n]) => s + n, 0);
+  const kept = (preview.kept_to_connect ?? []).length;
+  return `${total} ${total === 1 ? "pair" : "pairs"} cut. Components: ${preview.components_before} before, ` +
+    `${preview.components_after} after.` + (tests ? ` By test: ${tests}.` : "") +
+    (sum > total ? " A pair can fail several tests, so these add up to more than the total." : "") +
+    (kept ? ` Kept ${kept} pair(s) only the placement test cut, so no group of images is cut off.` : "");
 }

@@ -1,6 +1,7 @@
 // The project page: loads a version's scene, pairs and edit set, builds the shared state (store,
 // draft, selection, editor) and the panels, and wires the store's events to the scene view. The
 // only module that imports panels: they never import each other.
+import { ActivityPanel } from "./activity.js";
 import { get, post } from "./api.js";
 import { Draft } from "./draft.js";
 import { Editor } from "./editor.js";
@@ -14,6 +15,7 @@ import { Selection } from "./selection.js";
 import { adjacency, camerasOf, createStore, pointsOf } from "./state.js";
 import { Strip } from "./strip.js";
 import { DraftSync } from "./sync.js";
+import { TeamPanel } from "./team.js";
 import { bindControls } from "./controls.js";
 import { UploadPanel } from "./upload.js";
 import { VersionsPanel } from "./versions.js";
@@ -39,6 +41,7 @@ export class ProjectPage {
   async open(projectId, versionId = null) {
     const { store } = this;
     store.project = await get(`/projects/${projectId}`);
+    store.role = store.project.role ?? null;
     const vid = versionId ?? store.project.head_version_id;
     store.readOnly = versionId !== null && versionId !== store.project.head_version_id;
     view ??= new SceneView(this.root.querySelector("#scene"));
@@ -49,6 +52,7 @@ export class ProjectPage {
     this.showBanner(null);
     await Promise.all([this.versions?.load(), this.loadMembers(), this.watchRunningJob()]);
     if (this.sync && !store.readOnly) await this.sync.attach();
+    await Promise.all([this.team.poll(), this.activity.load().catch(() => {})]);
     this.refresh();
   }
 
@@ -107,6 +111,7 @@ export class ProjectPage {
     }
     this.upload = new UploadPanel(this.root.querySelector("#images-panel"), { ...ctx,
       onUploaded: () => { if (!store.version) this.reopen(); }, onJob: (job) => this.followJob(job) }, signal);
+    this.wireTeam(ctx, signal);
     bindPointer(view.canvas, { ...ctx, view }, signal);
     const page = { flush: () => this.sync?.flush(), apply: () => this.apply() };
     this.controls = bindControls(this.root, { ...ctx, page }, signal);
@@ -115,6 +120,16 @@ export class ProjectPage {
       if (kind !== "load") this.sync?.changed();
     };
     for (const name of ["draft", "selection", "preview", "display"]) store.on(name, () => this.refresh());
+    store.on("role", () => { this.showBanner(null); this.refresh(); });
+  }
+
+  // Comments, review and presence (polled), and the activity feed, refreshed with each poll.
+  wireTeam(ctx, signal) {
+    this.team = new TeamPanel(this.root.querySelector("#team-panel"), { ...ctx, view: this.view,
+      username: this.username, editSetId: () => this.sync?.editId ?? null,
+      flush: () => this.sync?.flush() }, signal);
+    this.activity = new ActivityPanel(this.root.querySelector("#activity-panel"), ctx, signal);
+    this.team.afterPoll = () => this.activity.load().catch(() => {});
   }
 
   // The scene view draws what the store's events say; it is kept across pages, so it starts clean.
@@ -123,12 +138,16 @@ export class ProjectPage {
     view.poseOf = (cam) => editor.poseOf(cam);
     view.setLines([]);
     view.setArrows([]);
-    store.showFrusta = view.showFrusta; // the frusta toggle outlives the page, like the view
+    store.showFrusta = view.showFrusta; // the display toggles outlive the page, like the view
+    store.showOrder = view.showOrder;
     Object.assign(view.canvas.dataset, { step: String(editor.step), rotateStep: String(editor.rotateStep) });
     store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
     store.on("lines", (lines) => view.setLines(lines));
     store.on("arrows", (arrows) => view.setArrows(arrows));
-    store.on("display", () => { view.showFrusta = store.showFrusta; view.requestDraw(); });
+    store.on("display", () => {
+      Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder });
+      view.requestDraw();
+    });
     store.on("view", (command) => view.command(command));
   }
 
@@ -146,6 +165,8 @@ export class ProjectPage {
     canvas.dataset.moved = [...draft.cameras.keys()].join(",");
     canvas.dataset.versionId = String(store.version?.id ?? "");
     canvas.dataset.editable = String(store.editable);
+    this.root.dataset.role = store.role ?? "";
+    this.jobStatus.canCancel = store.canWrite;
   }
 
   async loadMembers() {
@@ -181,7 +202,8 @@ export class ProjectPage {
     const done = await this.jobStatus.watch(job.id);
     this.setLocked(false);
     if (done.state === "succeeded") this.notify(done.message || `Job ${done.id} (${done.kind}) finished.`);
-    else this.notify(`Job ${done.id} ${done.state}: ${done.error ?? done.message ?? ""}`, "error");
+    else if (done.state === "cancelled") this.notify(`Job ${done.id} (${done.kind}) was cancelled.`, "warning");
+    else this.notify(`Job ${done.id} failed: ${done.error ?? done.message ?? ""}`, "error");
     if (!this.abort.signal.aborted) this.reopen();
   }
 
@@ -196,7 +218,8 @@ export class ProjectPage {
     const banner = this.root.querySelector("#banner");
     const { readOnly, version, project } = this.store;
     const readOnlyText = `Viewing v${version?.id} read-only; the head is v${project.head_version_id}.`;
-    const message = text ?? (readOnly ? readOnlyText : "");
+    const viewerText = "You are a viewer of this project: you can look, not change (ask an owner for the editor role).";
+    const message = text ?? (readOnly ? readOnlyText : this.store.canWrite ? "" : viewerText);
     banner.textContent = message;
     banner.hidden = !message;
     if (readOnly && !text) {
@@ -217,6 +240,10 @@ export class ProjectPage {
   // "Run reconstruction": save the edit set, apply it with remap, follow the job.
   async apply() {
     if (!this.editor.canEdit() || !this.sync) return;
+    if (this.draft.cameras.size === 0 && this.draft.deletePairs.size === 0) {
+      this.notify("Nothing to apply: move cameras or delete pairs first (no version is made).", "warning");
+      return;
+    }
     await this.sync.flush();
     if (this.sync.editId === null) await this.sync.save();
     try {

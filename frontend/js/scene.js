@@ -2,9 +2,10 @@
 // frustum triangles, match lines, comparison arrows and a scale bar. It draws what it is told:
 // the page forwards the store's "lines", "arrows", "display" and "view" events to it.
 import { DensityLayer } from "./density.js";
-import { drawArrows, drawFrusta, drawGlyphs, drawScaleBar, drawSegments } from "./glyphs.js";
+import { median, viewExtent } from "./geometry.js";
+import { drawArrows, drawFrusta, drawGlyphs, drawLabels, drawScaleBar, drawSegments } from "./glyphs.js";
 const COLOURS = ["points", "camera", "moved", "unregistered", "flagged", "selected", "hovered",
-  "match", "cut", "estimate", "arrow", "ghost", "frustum"];
+  "match", "cut", "estimate", "arrow", "ghost", "frustum", "order"];
 
 export class SceneView {
   constructor(canvas) {
@@ -21,6 +22,7 @@ export class SceneView {
     this.flagged = new Set();
     this.hovered = null;
     this.showFrusta = false;
+    this.showOrder = true; // the capture-order line and labels
     this.lines = []; // [{a, b, kind: "match"|"cut"|"estimate", weight}]
     this.arrows = []; // [{from: [x, y], to: [x, y]}]
     this.colours = readColours(canvas);
@@ -33,6 +35,7 @@ export class SceneView {
   // New cameras and points; the poses are the model's until an editor sets poseOf.
   setScene(cameras, points) {
     this.poseOf = modelPose;
+    this.overlay = null;
     this.selected = new Set();
     this.moved = new Set();
     this.flagged = new Set();
@@ -80,20 +83,13 @@ export class SceneView {
     }
   }
 
-  // Fit every placed camera and the central 96% of the points into the view.
+  // Frame the placed cameras and the points near them (viewExtent: far stray points stay out).
   fit() {
-    const xs = [];
-    const ys = [];
-    const step = Math.max(2, 2 * Math.floor(this.points.length / 2 / 5000));
-    for (let i = 0; i < this.points.length; i += step) { xs.push(this.points[i]); ys.push(this.points[i + 1]); }
-    let [x0, x1] = xs.length ? quantiles(xs) : [Infinity, -Infinity];
-    let [y0, y1] = ys.length ? quantiles(ys) : [Infinity, -Infinity];
-    for (const cam of this.cameras) {
-      const p = this.poseOf(cam);
-      if (!p) continue;
-      [x0, x1, y0, y1] = [Math.min(x0, p.x), Math.max(x1, p.x), Math.min(y0, p.y), Math.max(y1, p.y)];
-    }
-    if (!(x1 >= x0)) return;
+    const posed = this.posedCameras();
+    const ranges = posed.map(([, p]) => p.range).filter((r) => r > 0);
+    const extent = viewExtent(posed.map(([, p]) => [p.x, p.y]), this.points, median(ranges) ?? 0);
+    if (!extent) return;
+    const [x0, y0, x1, y1] = extent;
     const { width, height } = this.canvas;
     this.view.cx = (x0 + x1) / 2;
     this.view.cy = (y0 + y1) / 2;
@@ -160,6 +156,8 @@ export class SceneView {
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.clearRect(0, 0, canvas.width, canvas.height);
     ctx.drawImage(this.staticLayer(posed, t, px), 0, 0);
+    const ordered = this.showOrder ? [...posed].sort((a, b) => a[0].seq - b[0].seq) : [];
+    this.drawOrderLine(t, ordered, px);
     if (this.showFrusta) {
       drawFrusta(ctx, t, dynamic, { fill: colours.selectedFaint, stroke: colours.selected, px });
     }
@@ -167,7 +165,9 @@ export class SceneView {
     this.drawLines(t, px);
     drawArrows(ctx, t, this.arrows, { colour: colours.arrow, px });
     this.drawCameras(ctx, t, dynamic, px);
+    this.drawOrderLabels(t, ordered, px);
     if (posed.length || this.points.length) this.drawScale(px);
+    this.overlay?.(ctx, t, px); // e.g. comment pins, drawn by their panel
     this.frame += 1;
     Object.assign(canvas.dataset, { frame: String(this.frame), hovered: String(this.hovered ?? ""),
       view: `${this.view.cx},${this.view.cy},${this.view.scale}` });
@@ -216,6 +216,25 @@ export class SceneView {
       key[k++] = p.range ?? -1;
     }
     return key;
+  }
+
+  // The capture order: a thin line joining consecutive placed cameras (by seq; drawn each frame,
+  // as it follows a dragged selection) ...
+  drawOrderLine(t, ordered, px) {
+    const segments = [];
+    for (let i = 1; i < ordered.length; i++) {
+      const [a, b] = [ordered[i - 1][1], ordered[i][1]];
+      segments.push([a.x, a.y, b.x, b.y]);
+    }
+    drawSegments(this.ctx, t, segments, { colour: this.colours.order, width: px });
+    this.canvas.dataset.orderSegments = String(segments.length);
+  }
+
+  // ... and each camera's number (#seq + 1, as in the strip's titles), thinned where they overlap.
+  drawOrderLabels(t, ordered, px) {
+    const labels = drawLabels(this.ctx, t, ordered.map(([cam, p]) => [`${cam.seq + 1}`, p]),
+      { colour: this.colours.ink, halo: this.colours.scaleBg, px });
+    this.canvas.dataset.labels = JSON.stringify(labels);
   }
 
   posedCameras() {
@@ -290,12 +309,6 @@ function sameKey(a, b) {
   if (!b || a.length !== b.length) return false;
   for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) return false;
   return true;
-}
-
-function quantiles(values) {
-  const sorted = Float64Array.from(values).sort();
-  const at = (q) => sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
-  return [at(0.02), at(0.98)];
 }
 
 function readColours(element) {

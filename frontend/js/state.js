@@ -8,8 +8,9 @@
 //   "preview"    store.preview / store.previewState     (sync.js)
 //   "lines"      store.lines: match and cut lines       (preview panel) -> scene
 //   "arrows"     store.arrows: comparison arrows        (versions panel) -> scene
-//   "display"    store.showMatching / store.showFrusta  (controls) -> scene, preview
+//   "display"    store.showMatching / showFrusta / showOrder (controls) -> scene, preview
 //   "view"       a command for the scene: {fit} | {zoom} | {pan: [x, y]} (share of the view)
+//   "role"       store.role changed (a refusal showed the role is now viewer)     (sync.js)
 
 // The drag-and-drop type of an image dragged from the strip onto the scene.
 export const DRAG_IMAGE = "application/x-gsfm-image";
@@ -34,6 +35,7 @@ export function createStore() {
     hovered: null,
     showMatching: false,
     showFrusta: false,
+    showOrder: true, // the capture-order line and camera numbers
     preview: null, // the server's answer to GET .../edits/{id}/preview
     previewState: "none", // none | stale | ready
     lines: [], // [{a, b, kind: "match"|"cut"|"estimate", weight}]
@@ -41,7 +43,10 @@ export function createStore() {
     on(name, handler) { events.addEventListener(name, (e) => handler(e.detail)); },
     emit(name, detail) { events.dispatchEvent(new CustomEvent(name, { detail })); },
     set(name, value) { this[name] = value; this.emit(name, value); },
-    get editable() { return !this.readOnly && !this.locked && !!this.version; },
+    role: null, // the caller's role in the project: viewer | editor | owner
+    // A viewer may read only (design.md v1.1); no role given: the server decides.
+    get canWrite() { return this.role !== "viewer"; },
+    get editable() { return this.canWrite && !this.readOnly && !this.locked && !!this.version; },
   };
 }
 

@@ -31,6 +31,7 @@ export class DraftSync {
     this.editId = full.id;
     this.revision = full.revision;
     this.draft.load(full);
+    this.kept = full;
     await this.fetchPreview();
   }
 
@@ -62,8 +63,19 @@ export class DraftSync {
       await this.fetchPreview();
     } catch (error) {
       if (error instanceof ApiError && error.status === 409) await this.reloadAfterConflict();
-      else this.notify(`Could not save the edits: ${error.message}`, "error");
+      else this.undoRefused(error);
     }
+  }
+
+  // The server refused the change: put the scene back to what it keeps and say so, so nothing
+  // on screen pretends to be saved. A 403 means our role is now viewer.
+  undoRefused(error) {
+    this.notify(`Your change was not kept: ${error.message}. The scene shows the saved edits again.`,
+      "error");
+    this.saved = this.changes;
+    this.draft.load(this.kept ?? { cameras: [], delete_pairs: [], flags: [] });
+    this.setPreview(this.kept ? this.store.preview : null, this.kept ? "ready" : "none");
+    if (error instanceof ApiError && error.status === 403) this.store.set("role", "viewer");
   }
 
   async save() {
@@ -72,11 +84,13 @@ export class DraftSync {
       const created = await post(this.base, body);
       this.editId = created.id;
       this.revision = created.revision;
+      this.kept = body;
       return;
     }
     const headers = { "If-Match": String(this.revision) };
     const { data, response } = await request("PUT", `${this.base}/${this.editId}`, { json: body, headers });
     this.revision = data?.revision ?? Number(response.headers.get("ETag")?.replaceAll('"', ""));
+    this.kept = body;
   }
 
   async reloadAfterConflict() {
@@ -85,6 +99,7 @@ export class DraftSync {
     this.notify(`${current.updated_by ?? "Someone"} changed these edits at ${when}; ` +
       "their version is loaded (your last change was not saved).", "warning");
     this.revision = current.revision;
+    this.kept = current;
     this.draft.load(current);
     this.saved = this.changes;
     await this.fetchPreview();

@@ -2,8 +2,8 @@
 import { post, upload } from "./api.js";
 
 export class UploadPanel {
-  constructor(root, { projectId, notify, onUploaded, onJob }, signal) {
-    Object.assign(this, { root, projectId, notify, onUploaded, onJob });
+  constructor(root, { store, projectId, notify, onUploaded, onJob }, signal) {
+    Object.assign(this, { root, store, projectId, notify, onUploaded, onJob });
     this.form = root.querySelector("#upload-form");
     this.bar = root.querySelector("#upload-progress");
     this.status = root.querySelector("#upload-status");
@@ -28,6 +28,7 @@ export class UploadPanel {
       this.form.reset();
       this.onUploaded(images);
     } catch (error) {
+      this.bar.hidden = true; // no full bar beside a failure
       this.status.textContent = `Upload failed: ${error.message}`;
     }
   }
@@ -39,7 +40,14 @@ export class UploadPanel {
     this.status.textContent = `Uploading… ${percent}%`;
   }
 
+  // A fresh start over repaired versions is confirmed first: it maps the raw matches again.
   async reconstruct(form) {
+    const { version, cameras } = this.store;
+    if (!cameras.length) return this.notify("Upload images first: there is nothing to reconstruct.");
+    const question = `Reconstruct from scratch? This maps all ${cameras.length} images again from their ` +
+      `raw matches and makes a new head; your repairs in v${version?.id} stay in the version list but ` +
+      "are not carried over. To apply edits, use \"Run reconstruction\" in the toolbar instead.";
+    if (version && !window.confirm(question)) return;
     const body = { matcher: form.get("matcher"), mapper: form.get("mapper") };
     try {
       const job = await post(`/projects/${this.projectId}/reconstruct`, body);

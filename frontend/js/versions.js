@@ -58,7 +58,9 @@ export class VersionsPanel {
     actions.className = "row";
     const openTitle = isHead ? "Open the head for editing" : "Open read-only";
     if (!onScreen) actions.append(button("Open", "open", v.id, openTitle));
-    if (!isHead) actions.append(button("Restore", "restore", v.id, "Make a new head with this content", locked));
+    if (!isHead && this.store.canWrite) {
+      actions.append(button("Restore", "restore", v.id, "Make a new head with this content", locked));
+    }
     if (!onScreen) actions.append(button("Compare", "compare", v.id, "Arrows from it to the version on screen"));
     li.append(actions);
     return li;

@@ -13,7 +13,7 @@ from datetime import timedelta
 from typing import Any
 
 from sqlalchemy import select, update
-from sqlalchemy.exc import IntegrityError, OperationalError
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm.db.models import Job, Project, utcnow
@@ -21,6 +21,7 @@ from guided_sfm.db.session import session_scope
 from guided_sfm.errors import Conflict
 
 log = logging.getLogger(__name__)
+DONE = "done"  # every ended job's stage (design.md); its state says how it ended
 REPORT_SECONDS = 1.0  # progress writes are throttled to about one a second
 
 
@@ -53,7 +54,7 @@ def claim(session: Session, job_id: int) -> bool:
 def finish(session: Session, job_id: int, state: str, *, message: str = "", error: str | None = None,
            version_id: int | None = None, timings: dict[str, Any] | None = None) -> bool:
     """running -> succeeded/failed/cancelled; False (nothing changed) if someone already ended it."""
-    values: dict[str, Any] = {"state": state, "finished_at": utcnow(), "stage": state, "error": error,
+    values: dict[str, Any] = {"state": state, "finished_at": utcnow(), "stage": DONE, "error": error,
                               "timings": timings}
     if message:
         values["message"] = message
@@ -69,7 +70,7 @@ def request_cancel(session: Session, job: Job) -> None:
     """A queued job is cancelled at once; a running one gets the flag its worker checks."""
     if job.state == "queued":
         session.execute(update(Job).where(Job.id == job.id, Job.state == "queued").values(
-            state="cancelled", stage="cancelled", finished_at=utcnow(),
+            state="cancelled", stage=DONE, finished_at=utcnow(),
             message="cancelled before it started"))
     elif job.state == "running":
         session.execute(update(Job).where(Job.id == job.id).values(cancel_requested=True))
@@ -99,8 +100,8 @@ class Reporter:
                 session.execute(update(Job).where(Job.id == self.job_id, Job.state == "running")
                                 .values(heartbeat_at=utcnow(), **values))
                 session.commit()
-        except OperationalError:  # a busy SQLite file: progress is advisory, the next write retries
-            log.warning("job %s: progress write skipped (database busy)", self.job_id)
+        except Exception:  # database busy or away: progress is advisory, the next write retries
+            log.warning("job %s: progress write skipped", self.job_id, exc_info=True)
 
 
 def beat(session: Session, job_id: int) -> bool:
@@ -122,21 +123,29 @@ def lost_messages(session: Session, older_than: float) -> list[int]:
 
 def recover_stale(session: Session, older_than: float, max_attempts: int = 2) -> tuple[list[int], list[int]]:
     """Running jobs whose heartbeat stopped (their worker died): queued again while they have
-    attempts left, else failed. Returns (requeued ids, failed ids); the head is never touched."""
+    attempts left, else failed. Each change is a compare-and-set on the lease as read (still
+    running, same attempt, heartbeat still stale), so two sweepers never both requeue one run.
+    Returns (requeued ids, failed ids); the head is never touched."""
     cutoff = utcnow() - timedelta(seconds=older_than)
     stale = session.execute(select(Job.id, Job.attempts).where(Job.state == "running",
                                                                Job.heartbeat_at < cutoff)).all()
     requeued, failed = [], []
     for job_id, attempts in stale:
+        lease = update(Job).where(Job.id == job_id, Job.state == "running", Job.attempts == attempts,
+                                  Job.heartbeat_at < cutoff)
         if attempts < max_attempts:
-            session.execute(update(Job).where(Job.id == job_id, Job.state == "running").values(
+            changed = session.execute(lease.values(
                 state="queued", stage="queued", progress=0.0, enqueued_at=utcnow(), heartbeat_at=None,
-                message=f"queued again: the worker running attempt {attempts} stopped"))
-            requeued.append(job_id)
+                message=f"queued again: the worker running attempt {attempts} stopped")).rowcount
+            if changed:
+                requeued.append(job_id)
         else:
-            finish(session, job_id, "failed", error=f"the worker running this job stopped (no heartbeat "
-                   f"for {older_than:.0f} s, attempt {attempts}); the project's head is unchanged")
-            failed.append(job_id)
+            error = (f"the worker running this job stopped (no heartbeat for {older_than:.0f} s, "
+                     f"attempt {attempts}); the project's head is unchanged")
+            changed = session.execute(lease.values(
+                state="failed", stage="failed", finished_at=utcnow(), error=error)).rowcount
+            if changed:
+                failed.append(job_id)
     session.commit()
     return requeued, failed
 

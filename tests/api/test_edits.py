@@ -137,11 +137,30 @@ def test_preview_lists_pairs_in_rest_ids(client, reconstructed):
     assert data["kept_to_connect"] == []  # the paper's rule keeps nothing
 
 
+def a_pair(client, s):
+    pairs = client.get(f"/api/v1/projects/{s.pid}/versions/{s.vid}/pairs", headers=s.owner).json()
+    return [pairs[0]["image_id1"], pairs[0]["image_id2"]]
+
+
+def test_an_empty_apply_is_422_nothing_to_apply_and_makes_no_job(client, reconstructed, submitted, session):
+    from guided_sfm.db.models import Version
+
+    s = reconstructed
+    flagged = {"base_version_id": s.vid, "flags": [first_id(s)]}  # a flag alone changes nothing either
+    for body in ({"base_version_id": s.vid}, {"base_version_id": s.vid, "cameras": []}, flagged):
+        eid = client.post(url(s), json=body, headers=s.owner).json()["id"]
+        response = client.post(url(s, f"/{eid}/apply"), json={"remap": True}, headers=s.owner)
+        assert response.status_code == 422 and "nothing to apply" in response.json()["detail"], response.text
+    assert session.query(Job).count() == 0 and submitted == []
+    assert session.query(Version).filter_by(project_id=s.pid).count() == 1
+
+
 def test_apply_queues_a_job_and_refuses_a_stale_base(client, reconstructed, submitted, session):
     from guided_sfm.db.models import Project
 
     s = reconstructed
-    eid = client.post(url(s), json={"base_version_id": s.vid}, headers=s.owner).json()["id"]
+    body = {"base_version_id": s.vid, "delete_pairs": [a_pair(client, s)]}
+    eid = client.post(url(s), json=body, headers=s.owner).json()["id"]
     response = client.post(url(s, f"/{eid}/apply"), json={"remap": True}, headers=s.owner)
     assert response.status_code == 202, response.text
     job = response.json()
@@ -162,3 +181,44 @@ def test_an_edit_set_without_a_rule_gets_the_default_rule(client, reconstructed)
     schema = client.get("/openapi.json").json()["components"]["schemas"]["EditSetIn"]
     assert schema["properties"]["rule"]["enum"] == ["default", "paper"]
     assert schema["properties"]["rule"]["default"] == "default"
+
+
+def test_rebase_carries_a_stale_edit_set_onto_the_head_and_reports_what_it_dropped(
+        client, reconstructed, session, sessions, settings):
+    """v2 = v1 with pair P deleted; an edit set made on v1 moves a camera, flags it, deletes P and
+    Q and places an image v2 does not have: rebased, it keeps the camera, the flag and Q, and says
+    why P and the foreign image were dropped."""
+    from guided_sfm.actions import runner
+    from guided_sfm.db.models import Image
+
+    s = reconstructed
+    pairs = client.get(f"/api/v1/projects/{s.pid}/versions/{s.vid}/pairs", headers=s.owner).json()
+    p, q = ([r["image_id1"], r["image_id2"]] for r in pairs[:2])
+    first = client.post(url(s), json={"base_version_id": s.vid, "delete_pairs": [p]}, headers=s.owner).json()
+    job = client.post(url(s, f"/{first['id']}/apply"), json={"remap": False}, headers=s.owner).json()
+    assert runner.run_job(sessions, settings, job["id"]) == "succeeded"
+    head = client.get(f"/api/v1/projects/{s.pid}", headers=s.owner).json()["head_version_id"]
+    extra = Image(project_id=s.pid, name="zz-extra.jpg", width=8, height=8, seq=99)
+    session.add(extra)
+    session.commit()
+    body = {"base_version_id": s.vid, "cameras": [camera(first_id(s)), camera(extra.id)],
+            "flags": [first_id(s)], "delete_pairs": [p, q]}
+    stale = client.post(url(s), json=body, headers=s.owner).json()
+    refused = client.post(url(s, f"/{stale['id']}/apply"), json={}, headers=s.owner)
+    assert refused.status_code == 409 and "/rebase" in refused.json()["detail"]
+    assert client.post(url(s, f"/{stale['id']}/rebase"), headers=s.owner).status_code == 428
+    wrong = client.post(url(s, f"/{stale['id']}/rebase"), headers={**s.owner, "If-Match": "7"})
+    assert wrong.status_code == 409
+
+    rebased = client.post(url(s, f"/{stale['id']}/rebase"), headers={**s.owner, "If-Match": "1"})
+    assert rebased.status_code == 200, rebased.text
+    data = rebased.json()
+    assert data["base_version_id"] == head and data["revision"] == 2 and rebased.headers["ETag"] == '"2"'
+    assert [c["image_id"] for c in data["cameras"]] == [first_id(s)] and data["delete_pairs"] == [q]
+    report = data["report"]
+    assert (report["from_version"], report["to_version"]) == (s.vid, head)
+    assert report["carried"] == {"cameras": [first_id(s)], "delete_pairs": [q], "flags": [first_id(s)]}
+    assert sorted((d["kind"], d["image_ids"]) for d in report["dropped"]) == [
+        ("camera", [extra.id]), ("delete_pair", p)]
+    assert all(f"v{head}" in d["reason"] for d in report["dropped"])
+    assert client.post(url(s, f"/{stale['id']}/apply"), json={}, headers=s.owner).status_code == 202

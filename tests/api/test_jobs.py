@@ -25,7 +25,7 @@ def test_queue_then_409_then_cancel(client, submitted, session):
     again = client.post(f"/api/v1/projects/{pid}/reconstruct", json={}, headers=headers)
     assert again.status_code == 409 and "queued or running" in again.json()["detail"]
     cancelled = client.post(f"/api/v1/jobs/{job['id']}/cancel", headers=headers).json()
-    assert cancelled["state"] == "cancelled" and cancelled["finished_at"]
+    assert cancelled["state"] == "cancelled" and cancelled["finished_at"] and cancelled["stage"] == "done"
     assert client.post(f"/api/v1/jobs/{job['id']}/cancel", headers=headers).status_code == 409
     listed = client.get(f"/api/v1/projects/{pid}/jobs", headers=headers).json()
     assert [j["id"] for j in listed] == [job["id"]]

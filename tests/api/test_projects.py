@@ -34,6 +34,15 @@ def test_members(client):
     assert client.get(f"/api/v1/projects/{pid}", headers=bob).status_code == 404
 
 
+def test_the_project_list_names_the_role_and_the_owner(client):
+    alice, bob = signup(client, "alice"), signup(client, "bob")
+    pid = make_project(client, alice)
+    add_member(client, alice, pid, "bob", "viewer")
+    [listed] = client.get("/api/v1/projects", headers=bob).json()
+    assert (listed["id"], listed["role"], listed["owner"]) == (pid, "viewer", "alice")
+    assert client.get(f"/api/v1/projects/{pid}", headers=alice).json()["owner"] == "alice"
+
+
 def test_last_owner_stays(client, session):
     alice = signup(client, "alice")
     pid = make_project(client, alice)
@@ -72,7 +81,7 @@ def test_project_and_member_actions_run_without_the_api(session, store):
         accounts.sign_up(session, False, "carol", PASSWORD, str.upper)
     with pytest.raises(Conflict, match="'bob' is taken"):
         accounts.sign_up(session, True, "bob", PASSWORD, str.upper)
-    project = projects.create(session, alice.id, "hall", "d")
+    project = projects.create(session, store, alice.id, "hall", "d")
     assert session.get(Membership, (project.id, alice.id)).role == "owner"
     assert members.set_role(session, project, "bob", "editor").role == "editor"
     with pytest.raises(Conflict, match="'alice' is the last owner"):
@@ -111,3 +120,18 @@ def test_import_keeps_the_upload_only_for_a_queued_job(client, session, store, t
     again = client.post(f"/api/v1/projects/{pid}/import", files={"file": ("w.zip", archive)}, headers=alice)
     assert again.status_code == 409 and "queued or running" in again.json()["detail"]
     assert list(store.uploads_dir(pid).iterdir()) == kept
+
+
+def test_a_new_project_never_sees_files_a_crashed_deletion_left(client, session, store):
+    """Deletion commits the rows, then removes the files; a crash in between leaves the folder. On
+    SQLite the next project may get the same id: it must start empty."""
+    owner = signup(client, "alice")
+    pid = make_project(client, owner, "old team")
+    leftover = store.image_file(pid, "secret.jpg")
+    leftover.parent.mkdir(parents=True)
+    leftover.write_bytes(jpeg_bytes())
+    session.execute(Project.__table__.delete().where(Project.id == pid))  # the crash: rows gone, files not
+    session.commit()
+    new = make_project(client, owner, "new team")
+    assert not store.image_file(new, "secret.jpg").exists()
+    assert client.get(f"/api/v1/projects/{new}/images", headers=owner).json() == []

@@ -142,3 +142,61 @@ def test_unknown_version_is_404(client, reconstructed):
     for suffix in ("/scene", "/pairs", "/export", f"/compare?to={s.vid}"):
         response = client.get(vurl(s, 99999, suffix), headers=s.owner)
         assert response.status_code == 404 and "version 99999" in response.json()["detail"]
+
+
+def shifted_copy(source, target, moved_names, shift, sim):
+    """The source workspace with the named cameras' centres shifted by `shift` (one run moved as
+    one) and the whole model then re-centred by the similarity `sim`, as a re-map may do."""
+    import json
+    import shutil
+
+    import pycolmap
+
+    shutil.copytree(source, target)
+    model = pycolmap.Reconstruction(target / "sparse" / "0")
+    moved_ids = []
+    for image_id in model.reg_image_ids():
+        image = model.image(image_id)
+        if image.name in moved_names:
+            frame = model.frame(image.frame_id)  # one camera per frame: rig_from_world = cam_from_world
+            pose = frame.rig_from_world
+            frame.rig_from_world = pycolmap.Rigid3d(pose.rotation,
+                                                    pose.translation - pose.rotation.matrix() @ shift)
+            moved_ids.append(image_id)
+    model.transform(sim)
+    model.write_binary(target / "sparse" / "0")
+    (target / "scene.json").unlink(missing_ok=True)
+    (target / "edits.json").write_text(json.dumps({"cameras": [{"image_id": i} for i in moved_ids]}))
+
+
+def test_compare_aligns_on_the_cameras_no_edit_moved(client, reconstructed, session, store,
+                                                      tiny_reconstruction, tmp_path):
+    """A run of most cameras moved as one, then the model re-centred: compare still aligns on
+    the untouched cameras and reports exactly the moved run as moved."""
+    import numpy as np
+    import pycolmap
+
+    from guided_sfm.core.workspace import Workspace
+
+    s = reconstructed
+    model = pycolmap.Reconstruction(tiny_reconstruction / "sparse" / "0")
+    names = sorted(model.image(i).name for i in model.reg_image_ids())
+    run = set(names[: len(names) * 2 // 3])  # the moved run outnumbers the untouched cameras
+    extent = np.ptp(np.array([model.image(i).projection_center() for i in model.reg_image_ids()]), axis=0)
+    sim = pycolmap.Sim3d(1.7, pycolmap.Rotation3d(np.array([0.0, 0.0, 0.38268343, 0.92387953])),
+                         np.array([[5.0], [-3.0], [2.0]]))
+    with store.staging(s.pid) as staging:
+        shifted_copy(tiny_reconstruction, staging / "ws", run, 0.5 * float(extent.max()) * np.ones(3), sim)
+        path = store.publish(s.pid, staging / "ws")
+    after = Version(project_id=s.pid, parent_id=s.vid, kind="apply", message="moved a run", path=path,
+                    stats=Workspace(store.version_dir(path)).stats())
+    session.add(after)
+    session.commit()
+    for a, b in ((s.vid, after.id), (after.id, s.vid)):
+        response = client.get(vurl(s, a, f"/compare?to={b}"), headers=s.owner)
+        assert response.status_code == 200, response.text
+        name_of = {rest_id: name for name, rest_id in s.image_ids.items()}
+        by_name = {name_of[c["image_id"]]: c for c in response.json()["cameras"]}
+        moved = {name for name, c in by_name.items() if c["moved"] > 0.05 * float(extent.max())}
+        assert moved == run, (a, b, sorted(moved))
+        assert max(by_name[n]["moved"] for n in set(names) - run) < 1e-3 * float(extent.max())

@@ -33,15 +33,20 @@ class FakeApi:
 
     `older` gives earlier versions' cameras (version id -> cameras; default: the head's);
     `compare` overrides the answer of GET .../versions/{vid}/compare (default: the distances
-    between the two versions' camera centres, as if the server had aligned them)."""
+    between the two versions' camera centres, as if the server had aligned them); `stray` adds
+    far points to the scene's; `role` is the caller's; `refuse_edits` answers 403 to saving an
+    edit set, as the server does once the caller's role became viewer; `jobs` are the project's."""
 
     def __init__(self, head: int = 1, older: dict[int, list[dict]] | None = None,
-                 compare: list[dict] | None = None) -> None:
+                 compare: list[dict] | None = None, stray: list[list[float]] = (),
+                 role: str = "owner", refuse_edits: bool = False, jobs: list[dict] = ()) -> None:
         self.cameras = [camera(i, float(i - 1)) for i in range(1, 6)] + [camera(6, None, False)]
         self.pairs = {(1, 2): 100, (2, 3): 80, (3, 4): 120, (4, 5): 60, (1, 3): 30, (2, 4): 40, (3, 5): 50}
         self.head = head
         self.older = older or {}
         self.compare_answer = compare
+        self.role, self.refuse_edits, self.jobs = role, refuse_edits, list(jobs)
+        self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
 
@@ -67,14 +72,14 @@ class FakeApi:
 
     def answer(self, method: str, path: str, request) -> tuple[int, object]:
         project = {"id": 1, "name": "fake", "description": "", "head_version_id": self.head,
-                   "created_at": "2026-01-01T00:00:00Z", "role": "owner"}
+                   "created_at": "2026-01-01T00:00:00Z", "role": self.role, "owner": "fake-owner"}
         routes = {
             ("POST", "/auth/token"): lambda: {"access_token": "fake", "token_type": "bearer"},
             ("GET", "/projects"): lambda: [project],
             ("GET", "/projects/1"): lambda: project,
             ("GET", "/projects/1/versions"): self.versions,
             ("GET", "/projects/1/members"): lambda: [{"username": "fake-user", "role": "owner"}],
-            ("GET", "/projects/1/jobs"): lambda: [],
+            ("GET", "/projects/1/jobs"): lambda: self.jobs,
             ("GET", "/projects/1/edits"): lambda: [self.edit] if self.edit else [],
             ("GET", "/projects/1/edits/1"): lambda: self.edit,
             ("GET", "/projects/1/edits/1/preview"): self.preview,
@@ -85,7 +90,7 @@ class FakeApi:
             frame = {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0], "up": [0, 0, 1]}
             return 200, {"frame": frame, "cameras": self.cameras_of(version_of(path)),
                          "models": [{"index": 0, "num_images": 5}],
-                         "points": {"xy": [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)]}}
+                         "points": {"xy": self.points}}
         if path.endswith("/compare"):
             to = int(parse_qs(urlsplit(request.url).query)["to"][0])
             return 200, {"cameras": self.compare_answer or self.compare(version_of(path), to)}
@@ -94,6 +99,10 @@ class FakeApi:
                          for (a, b), n in self.pairs.items()]
         if path.endswith("/thumbnail"):
             return 200, PNG
+        if path.startswith("/projects/1/edits") and method in ("POST", "PUT") and self.refuse_edits:
+            return 403, {"detail": "your role in project 1 is viewer; this needs editor"}
+        if path == "/projects/1/reconstruct" and method == "POST":
+            return 409, {"detail": "a job of project 1 is queued or running"}
         if path == "/projects/1/edits" and method == "POST":
             self.edit = {**request.post_data_json, "id": 1, "revision": 1, "updated_by": "fake-user",
                          "updated_at": "2026-01-01T00:00:00Z"}
@@ -126,16 +135,18 @@ class FakeApi:
         placed = {c["image_id"]: (c["x"], c["y"]) for c in self.cameras if c["x"] is not None}
         placed.update({c["image_id"]: (c["x"], c["y"]) for c in self.edit["cameras"]})
         moved = {c["image_id"] for c in self.edit["cameras"]}
-        cut = {tuple(sorted(p)) for p in self.edit["delete_pairs"]}
+        reasons = {tuple(sorted(p)): ["manual"] for p in self.edit["delete_pairs"]}
         for a, b in self.pairs:
             if (a in moved or b in moved) and math.dist(placed[a], placed[b]) > CUT_DISTANCE:
-                cut.add((a, b))
-        kept = [p for p in self.pairs if p not in cut]
-        return {"pairs_to_delete": [list(p) for p in sorted(cut)],
+                reasons.setdefault((a, b), ["placement", "relative_pose"])  # as the default rule's
+        cut = sorted(reasons)
+        kept = [p for p in self.pairs if p not in reasons]
+        by_test = {t: sum(t in r for r in reasons.values()) for t in ("placement", "relative_pose", "manual")}
+        return {"pairs_to_delete": [list(p) for p in cut],
                 "components_before": components(self.pairs),
                 "components_after": components(kept, {i for p in self.pairs for i in p}),
-                "removed_by_test": {"fake": len(cut)}, "kept_to_connect": [],
-                "reasons": [{"pair": list(p), "tests": ["fake"]} for p in sorted(cut)]}
+                "removed_by_test": by_test, "kept_to_connect": [],
+                "reasons": [{"pair": list(p), "tests": reasons[p]} for p in cut]}
 
 
 def version_of(path: str) -> int:

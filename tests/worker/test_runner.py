@@ -51,7 +51,8 @@ def test_failed_job_leaves_head_and_no_files(client, headers_pid, session, sessi
                                              store_with_version):
     headers, pid = headers_pid
     head = store_with_version(pid)
-    edit = {"base_version_id": head, "cameras": []}
+    pairs = client.get(f"/api/v1/projects/{pid}/versions/{head}/pairs", headers=headers).json()
+    edit = {"base_version_id": head, "delete_pairs": [[pairs[0]["image_id1"], pairs[0]["image_id2"]]]}
     eid = client.post(f"/api/v1/projects/{pid}/edits", json=edit, headers=headers).json()["id"]
     job_id = client.post(f"/api/v1/projects/{pid}/edits/{eid}/apply", json={}, headers=headers).json()["id"]
     job = session.get(Job, job_id)
@@ -60,6 +61,7 @@ def test_failed_job_leaves_head_and_no_files(client, headers_pid, session, sessi
     assert runner.run_job(sessions, settings, job_id) == "failed"
     session.expire_all()
     assert "not part of this version" in session.get(Job, job_id).error
+    assert session.get(Job, job_id).stage == "done"
     assert session.get(Job, job_id).timings is not None  # a failed job says where its time went
     assert session.get(Project, pid).head_version_id == head
     assert session.query(Version).filter_by(project_id=pid).count() == 1
@@ -79,6 +81,7 @@ def test_apply_without_remap_prunes_into_a_new_head(client, headers_pid, session
                          headers=headers).json()["id"]
     assert runner.run_job(sessions, settings, job_id) == "succeeded"
     job = job_json(client, headers, job_id)
+    assert job["stage"] == "done" and job["state"] == "succeeded"  # not "succeeded · succeeded"
     new_url = f"/api/v1/projects/{pid}/versions/{job['version_id']}/pairs"
     new_pairs = client.get(new_url, headers=headers).json()
     assert len(new_pairs) == len(pairs) - 1

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from guided_sfm import jobs
 from guided_sfm.actions import uploads
 from guided_sfm.actions.context import JobContext, NewImage, Produced
+from guided_sfm.core import colmap_db
 from guided_sfm.core.errors import InvalidInput
 from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
@@ -52,7 +53,7 @@ def _keep(store: ArtifactStore, project_id: int, upload: BinaryIO, limit: int) -
 
 def _check_archive(path: Path, limit: int) -> None:
     """Refuse an unsafe or incomplete workspace zip before a job is queued."""
-    with uploads.open_zip(path) as archive:
+    with uploads.open_zip(path, "the workspace zip") as archive:
         _members(archive, uploads.Budget(limit))
 
 
@@ -77,9 +78,10 @@ def _common_root(paths: list[PurePosixPath]) -> tuple[str, ...]:
 def run(context: JobContext, work: Path) -> Produced:
     upload = context.store.root / context.job.params["upload"]
     try:
-        images = _extract(upload, work, context.settings.max_upload_bytes)
+        images = _extract(upload, work, context.settings.max_upload_bytes, context.settings.max_image_mpx)
     finally:
         upload.unlink(missing_ok=True)
+    colmap_db.check_untrusted(work / "database.db")  # before pycolmap or we read a row of it
     workspace = Workspace(work)
     workspace.write_meta({"image_dir": str(context.images_dir()), "imported": True})
     names = set(workspace.image_ids())
@@ -93,15 +95,15 @@ def run(context: JobContext, work: Path) -> Produced:
     return Produced(work, "import", message, None, stats, new_images=images, images_from=work / "images")
 
 
-def _extract(upload: Path, work: Path, limit: int) -> list[NewImage]:
+def _extract(upload: Path, work: Path, limit: int, limit_mpx: int) -> list[NewImage]:
     budget = uploads.Budget(limit)
     images = []
-    with uploads.open_zip(upload) as archive:
+    with uploads.open_zip(upload, "the workspace zip") as archive:
         for info, path in _members(archive, budget):
             if path.parts[0] == "images" and len(path.parts) > 2:
                 raise BadUpload(f"{info.filename}: images/ must be flat (no sub-folders)")
             uploads.extract(archive, info, work / path, budget)
             if path.parts[0] == "images":
                 name = uploads.image_name(path.name, "zip entry")
-                images.append(uploads.check_image(work / path, name))
+                images.append(uploads.check_image(work / path, name, limit_mpx))
     return images

@@ -78,5 +78,22 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
 
 def compare(session: Session, store: ArtifactStore, version: Version, other: Version) -> dict[str, Any]:
     ids = IdMap.load(session, other.project_id, _workspace(store, other))
-    rows = _workspace(store, version).compare(_workspace(store, other))
+    edited = set().union(*(_workspace(store, v).touched_names() for v in _between(session, version, other)))
+    rows = _workspace(store, version).compare(_workspace(store, other), edited)
     return {"cameras": ids.rows(rows)}
+
+
+def _lineage(session: Session, version: Version) -> list[Version]:
+    """The version and its ancestors, newest first."""
+    chain = [version]
+    while chain[-1].parent_id is not None and len(chain) < 10_000:
+        chain.append(session.get(Version, chain[-1].parent_id))
+    return chain
+
+
+def _between(session: Session, a: Version, b: Version) -> list[Version]:
+    """The versions made after the last common ancestor of a and b, on either side: the rounds
+    whose edits lie between them."""
+    chain_a, chain_b = _lineage(session, a), _lineage(session, b)
+    ids_a, ids_b = {v.id for v in chain_a}, {v.id for v in chain_b}
+    return [v for v in chain_a if v.id not in ids_b] + [v for v in chain_b if v.id not in ids_a]

@@ -101,9 +101,12 @@ def align_models(models: list[pycolmap.Reconstruction], reference: pycolmap.Reco
     return True
 
 
-def compare_models(before: pycolmap.Reconstruction, after: pycolmap.Reconstruction) -> list[dict]:
-    """Per registered camera of `after`: distance moved and angle turned since `before`."""
-    sim = similarity_between(after, before)
+def compare_models(before: pycolmap.Reconstruction, after: pycolmap.Reconstruction,
+                   edited: set[str] = frozenset()) -> list[dict]:
+    """Per registered camera of `after`: distance moved and angle turned since `before`, after
+    aligning on the common cameras no edit moved (the `edited` names), so a re-centred re-map
+    counts only what the edit really moved."""
+    sim = similarity_between(after, before, edited)
     poses_before, poses_after = camera_poses(before), camera_poses(after)
     out = []
     for image_id in sorted(after.reg_image_ids()):

@@ -114,3 +114,35 @@ def yaw_slack_deg(base_deg: float, per_member_deg: float, moved_members: np.ndar
     """The yaw error (deg) a pair's test allows: base with one moved member, plus per_member for
     each further one (each placement brings its own yaw error)."""
     return base_deg + per_member_deg * np.maximum(moved_members - 1, 0)
+
+
+# The view frames the cameras and the points within a margin around them: the cameras' typical
+# range (what they look at), kept between these shares of the cameras' extent, so the cameras
+# fill at least about half the view; farther points (stray matches, a distant facade) stay
+# reachable by zooming out. The editor's Fit (frontend/js/geometry.js: viewExtent) is the twin.
+VIEW_MARGIN_SHARES = (0.2, 0.5)
+VIEW_POINT_QUANTILES = (0.02, 0.98)
+
+
+def view_extent(cameras_xy: np.ndarray, points_xy: np.ndarray,
+                min_size: float = 0.0) -> tuple[float, float, float, float] | None:
+    """(x0, y0, x1, y1) to frame in a top-down view: the cameras' box (at least min_size wide,
+    min_size being the cameras' typical range) and the central points near it; the points'
+    central box when there are no cameras."""
+    cameras_xy = np.asarray(cameras_xy, dtype=float).reshape(-1, 2)
+    points_xy = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+    if not len(cameras_xy):
+        if not len(points_xy):
+            return None
+        lo, hi = np.quantile(points_xy, VIEW_POINT_QUANTILES, axis=0)
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+    lo, hi = cameras_xy.min(axis=0), cameras_xy.max(axis=0)
+    centre, half = (lo + hi) / 2, max(min_size, 1e-9) / 2
+    lo, hi = np.minimum(lo, centre - half), np.maximum(hi, centre + half)  # one camera: min_size
+    size = float((hi - lo).max())
+    margin = min(max(min_size, VIEW_MARGIN_SHARES[0] * size), VIEW_MARGIN_SHARES[1] * size)
+    near = points_xy[np.all((points_xy >= lo - margin) & (points_xy <= hi + margin), axis=1)]
+    if len(near):
+        q_lo, q_hi = np.quantile(near, VIEW_POINT_QUANTILES, axis=0)
+        lo, hi = np.minimum(lo, q_lo), np.maximum(hi, q_hi)
+    return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])

@@ -28,6 +28,15 @@ def role_of(session: Session, project_id: int, user_id: int) -> str | None:
     )
 
 
+def owner_name(session: Session, project_id: int) -> str | None:
+    """The username of the project's first owner (the creator unless ownership was handed on)."""
+    return session.scalar(
+        select(User.username).join(Membership, Membership.user_id == User.id)
+        .where(Membership.project_id == project_id, Membership.role == "owner").order_by(Membership.user_id)
+        .limit(1)
+    )
+
+
 def role_at_least(role: str | None, needed: str) -> bool:
     return role is not None and ROLES.index(role) >= ROLES.index(needed)
 

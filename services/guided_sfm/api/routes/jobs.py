@@ -7,7 +7,9 @@ from fastapi import APIRouter, File, UploadFile
 from guided_sfm import jobs
 from guided_sfm.actions import import_workspace
 from guided_sfm.actions import reconstruct as reconstruct_action
+from guided_sfm.actions.activity import job_ended, record
 from guided_sfm.api.deps import (
+    ActorDep,
     CurrentUser,
     EditorJob,
     EditorProject,
@@ -27,17 +29,22 @@ router = APIRouter(tags=["jobs"])
 
 @router.post("/projects/{pid}/reconstruct", status_code=202, response_model=JobOut)
 def reconstruct(project: EditorProject, session: SessionDep, user: CurrentUser, submit: SubmitDep,
-                body: ReconstructIn | None = None) -> Job:
+                actor: ActorDep, body: ReconstructIn | None = None) -> Job:
     params = (body or ReconstructIn()).model_dump(exclude_none=True)
-    return reconstruct_action.queue(session, submit, project, user.id, params)
+    job = reconstruct_action.queue(session, submit, project, user.id, params)
+    record(session, project.id, actor, "reconstruct", {"kind": "job", "id": job.id},
+           {"job_id": job.id, **params})
+    return job
 
 
 @router.post("/projects/{pid}/import", status_code=202, response_model=JobOut)
 def import_(project: EditorProject, session: SessionDep, user: CurrentUser, submit: SubmitDep,
-            store: StoreDep, settings: SettingsDep,
+            store: StoreDep, settings: SettingsDep, actor: ActorDep,
             file: Annotated[UploadFile, File(description="zip of database.db, sparse/0/, images/")]) -> Job:
-    return import_workspace.queue(session, store, submit, project, user.id, file.file,
-                                  settings.max_upload_bytes)
+    job = import_workspace.queue(session, store, submit, project, user.id, file.file,
+                                 settings.max_upload_bytes)
+    record(session, project.id, actor, "import", {"kind": "job", "id": job.id}, {"job_id": job.id})
+    return job
 
 
 @router.get("/projects/{pid}/jobs", response_model=list[JobOut])
@@ -53,4 +60,5 @@ def get_job(job: ViewerJob) -> Job:
 @router.post("/jobs/{job_id}/cancel", response_model=JobOut)
 def cancel_job(job: EditorJob, session: SessionDep) -> Job:
     jobs.request_cancel(session, job)
+    job_ended(session, job.id)  # a queued job ends at once (a running one when its worker sees the flag)
     return job
