@@ -32,6 +32,18 @@ class In(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
+class ProblemOut(BaseModel):
+    loc: list[str | int]
+    msg: str
+
+
+class InvalidOut(BaseModel):
+    """A 422 as api/errors.py writes it: one sentence, and the problems when validation found them."""
+
+    detail: str
+    errors: list[ProblemOut] = Field(default_factory=list)
+
+
 class UserCreate(In):
     username: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.@-]+$")
     password: Text = Field(min_length=8, max_length=256)
