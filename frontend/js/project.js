@@ -179,8 +179,28 @@ export class ProjectPage {
     const running = jobs.find((j) => !TERMINAL.has(j.state));
     if (running) this.followJob(running);
     else if (jobs.length && first) this.jobStatus.show(jobs.sort((a, b) => b.id - a.id)[0]);
+    if (!first && !running) await this.checkHead();
     clearTimeout(this.jobTimer);
     this.jobTimer = setTimeout(() => this.watchRunningJob(false).catch(() => {}), JOB_LOOK_MS);
+  }
+
+  // Someone else made a new head (applied, restored): offer to reload onto it; the edits on
+  // screen are carried over then (DraftSync.attach rebases them).
+  async checkHead() {
+    const project = await get(`/projects/${this.store.project.id}`);
+    const head = project.head_version_id;
+    if (this.abort.signal.aborted || head === this.store.project.head_version_id) return;
+    this.store.project.head_version_id = head;
+    this.showBanner(`v${head} is the project's new head (made by someone else). Your edits are on v` +
+      `${this.store.version?.id}; reload to carry them onto v${head}.`);
+    const reload = document.createElement("button");
+    reload.type = "button";
+    reload.textContent = "Reload onto the new head";
+    reload.addEventListener("click", async () => {
+      await this.sync?.flush(); // the latest change is saved before the edit set is carried over
+      this.reopen();
+    }, { signal: this.abort.signal });
+    this.root.querySelector("#banner").append(" ", reload);
   }
 
   // Lock editing while the job runs; when it ends, show the project's (new) head.

@@ -107,12 +107,31 @@ class FakeApi:
             self.edit = {**request.post_data_json, "id": 1, "revision": 1, "updated_by": "fake-user",
                          "updated_at": "2026-01-01T00:00:00Z"}
             return 201, self.edit
+        if path == "/projects/1/edits/1/rebase" and method == "POST":
+            return self.rebase(request)
         if path == "/projects/1/edits/1" and method == "PUT":
             if request.headers.get("if-match", "").strip('"') != str(self.edit["revision"]):
                 return 409, {"detail": "edit set 1 was saved by someone else"}
             self.edit = {**self.edit, **request.post_data_json, "revision": self.edit["revision"] + 1}
             return 200, self.edit
         return 404, {"detail": f"the fake API has no {method} {path}"}
+
+    def rebase(self, request) -> tuple[int, dict]:
+        """Carry the edit set onto the head: cameras on the head's images, deletions of its pairs."""
+        if request.headers.get("if-match", "").strip('"') != str(self.edit["revision"]):
+            return 409, {"detail": "edit set 1 was saved by someone else"}
+        images = {c["image_id"] for c in self.cameras_of(self.head)}
+        old, cameras = self.edit, [c for c in self.edit["cameras"] if c["image_id"] in images]
+        pairs = [p for p in old["delete_pairs"] if tuple(sorted(p)) in self.pairs]
+        dropped = [{"kind": "camera", "image_ids": [c["image_id"]], "reason": f"not part of v{self.head}"}
+                   for c in old["cameras"] if c not in cameras]
+        dropped += [{"kind": "delete_pair", "image_ids": p, "reason": f"v{self.head} does not match it"}
+                    for p in old["delete_pairs"] if p not in pairs]
+        self.edit = {**old, "base_version_id": self.head, "cameras": cameras, "delete_pairs": pairs,
+                     "revision": old["revision"] + 1}
+        carried = {"cameras": [c["image_id"] for c in cameras], "delete_pairs": pairs, "flags": old["flags"]}
+        return 200, {**self.edit, "report": {"from_version": old["base_version_id"], "to_version": self.head,
+                                             "carried": carried, "dropped": dropped}}
 
     def versions(self) -> list[dict]:
         stats = {"num_images": 6, "num_registered": 5, "num_models": 1, "num_pairs": 7, "num_points": 28}

@@ -9,7 +9,7 @@ import json
 import pytest
 
 from tests.e2e.conftest import shot
-from tests.e2e.fake_api import FakeApi
+from tests.e2e.fake_api import ORIGIN, FakeApi
 from tests.e2e.test_editor_offline import open_fake
 
 pytestmark = pytest.mark.browser
@@ -234,3 +234,77 @@ def test_nothing_carries_over_from_one_project_to_the_next(page):
     page.wait_for_selector("body[data-ready='1/1']")
     assert page.input_value("#member-form input[name=username]") == ""
     assert page.inner_text("#job-text") == "No job."
+
+
+def stale_edit(base: int) -> dict:
+    """An edit set saved on an older version: camera 2 moved, camera 9 (gone since) placed, the
+    pair (1, 2) and a pair the head no longer matches deleted."""
+    return {"id": 1, "revision": 3, "base_version_id": base, "updated_by": "fake-user",
+            "updated_at": "2026-01-01T00:00:00Z", "rule": "default", "flags": [],
+            "cameras": [{"image_id": 2, "x": 1.2, "y": 0.3, "yaw_deg": 90.0, "fov_deg": 60.0, "range": 2.0},
+                        {"image_id": 9, "x": 0.0, "y": 1.0, "yaw_deg": 0.0, "fov_deg": 60.0, "range": 2.0}],
+            "delete_pairs": [[1, 2], [1, 5]]}
+
+
+def test_a_stale_edit_set_is_rebased_onto_the_head_with_a_report(page):
+    """The head moved on (v2) while edits sat on v1: opening the head carries them over and says
+    what was carried and what could not be; the move is on screen, not lost."""
+    fake = FakeApi(head=2)
+    fake.edit = stale_edit(1)
+    open_fake(page, fake)
+    page.wait_for_selector("#notice:has-text('carried onto the head v2')")
+    text = page.inner_text("#notice")
+    assert "1 camera(s), 1 deletion(s)" in text and "Not carried" in text, text
+    assert "camera #9" in text and "delete pair 0001.jpg–0005.jpg" in text, text
+    assert fake.edit["base_version_id"] == 2 and fake.edit["revision"] == 4
+    assert ("POST", "/api/v1/projects/1/edits/1/rebase") in fake.log
+    assert page.get_attribute("#scene", "data-moved") == "2"
+    shot(page, "team-rebase")
+
+
+def open_second_tab(page, fake: FakeApi):
+    """A second page of the same browser (signed in already, sharing the fake server)."""
+    other = page.context.new_page()
+    fake.install(other)
+    other.goto(f"{ORIGIN}/#/p/1")
+    other.wait_for_selector(f"body[data-ready='1/{fake.head}']")
+    return other
+
+
+def move(page, image_id: int, key: str = "Shift+ArrowUp") -> None:
+    page.locator(f"#strip .thumb[data-id='{image_id}']").click()
+    page.locator("#scene").focus()
+    page.keyboard.press(key)
+    page.wait_for_selector("#cut-counter[data-state=ready]")
+
+
+def test_two_tabs_never_drop_a_change_silently(page, console):
+    """Tab B opens before tab A saves anything; both then move different cameras, each from its
+    own stale copy. Every move ends up in the one edit set, and each merge is announced."""
+    console.allow.append("409")  # tab A's stale save, expected
+    fake = FakeApi()
+    open_fake(page, fake)
+    other = open_second_tab(page, fake)
+    move(page, 2)  # tab A creates the edit set
+    move(other, 4)  # tab B knew of none: it joins A's instead of starting a second one
+    other.wait_for_selector("#notice:has-text('merged into them')")
+    assert sorted(c["image_id"] for c in fake.edit["cameras"]) == [2, 4]
+    move(page, 3)  # tab A's copy is stale (B saved revision 2): a 409, merged and saved again
+    page.wait_for_selector("#notice:has-text('merged onto theirs')")
+    assert sorted(c["image_id"] for c in fake.edit["cameras"]) == [2, 3, 4]
+    assert sorted(page.get_attribute("#scene", "data-moved").split(",")) == ["2", "3", "4"]
+    other.close()
+
+
+def test_a_new_head_made_elsewhere_is_noticed_and_the_edits_follow_it(page):
+    """Someone else's apply makes v2 the head while this page edits v1: the page notices within
+    its polling period, offers to reload, and reloading carries the edits onto v2."""
+    fake = FakeApi(head=1)
+    open_fake(page, fake)
+    move(page, 2)
+    fake.head = 2  # made elsewhere
+    page.wait_for_selector("#banner:has-text('new head')", timeout=25_000)
+    page.get_by_role("button", name="Reload onto the new head").click()
+    page.wait_for_selector("body[data-ready='1/2']")
+    page.wait_for_selector("#notice:has-text('carried onto the head v2')")
+    assert fake.edit["base_version_id"] == 2 and page.get_attribute("#scene", "data-moved") == "2"
