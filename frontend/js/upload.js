@@ -1,5 +1,5 @@
 // Adding images (JPEG/PNG or one .zip) with upload progress, and starting a reconstruction.
-import { post, upload } from "./api.js";
+import { del, post, upload } from "./api.js";
 
 export class UploadPanel {
   constructor(root, { store, projectId, notify, onUploaded, onJob }, signal) {
@@ -8,6 +8,7 @@ export class UploadPanel {
     this.bar = root.querySelector("#upload-progress");
     this.status = root.querySelector("#upload-status");
     this.form.addEventListener("submit", (e) => { e.preventDefault(); this.send(); }, { signal });
+    root.querySelector("#delete-images").addEventListener("click", () => this.deleteSelected(), { signal });
     root.querySelector("#reconstruct-form").addEventListener("submit", (e) => {
       e.preventDefault();
       this.reconstruct(new FormData(e.target));
@@ -31,6 +32,26 @@ export class UploadPanel {
       this.bar.hidden = true; // no full bar beside a failure
       this.status.textContent = `Upload failed: ${error.message}`;
     }
+  }
+
+  // Delete the selected images, one request each; the server refuses those a version uses
+  // (design.md v1.1), and each answer is reported.
+  async deleteSelected() {
+    const ids = [...this.store.selection];
+    if (!ids.length) return this.notify("Select the images to delete first (in the strip).");
+    const names = ids.map((id) => this.store.byId.get(id)?.name ?? `#${id}`);
+    if (!window.confirm(`Delete ${names.length} image(s): ${names.join(", ")}? This cannot be undone.`)) return;
+    const outcome = [];
+    for (const [i, id] of ids.entries()) {
+      try {
+        await del(`/projects/${this.projectId}/images/${id}`);
+        outcome.push(`${names[i]} deleted`);
+      } catch (error) {
+        outcome.push(`${names[i]} kept: ${error.message}`);
+      }
+    }
+    this.status.textContent = outcome.join("; ");
+    if (outcome.some((o) => o.endsWith(" deleted"))) this.onUploaded([]);
   }
 
   setProgress(fraction) {

@@ -22,6 +22,7 @@ def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict) -> list
         ("GET", f"{p}/images", VIEWER, {}),
         ("GET", f"{p}/images/{iid}/thumbnail", VIEWER, {}),
         ("GET", f"{p}/images/{iid}/file", VIEWER, {}),
+        ("DELETE", f"{p}/images/{iid}", EDITOR, {}),
         ("POST", f"{p}/reconstruct", EDITOR, {"json": {}}),
         ("POST", f"{p}/import", EDITOR, {"files": {"file": ("ws.zip", b"PK", "application/zip")}}),
         ("GET", f"{p}/jobs", VIEWER, {}),

@@ -46,6 +46,7 @@ class FakeApi:
         self.older = older or {}
         self.compare_answer = compare
         self.role, self.refuse_edits, self.jobs = role, refuse_edits, list(jobs)
+        self.deleted = False
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
@@ -62,7 +63,9 @@ class FakeApi:
             return
         self.log.append((request.method, path))
         status, body = self.answer(request.method, path.removeprefix("/api/v1"), request)
-        if isinstance(body, bytes):
+        if status == 204:
+            route.fulfill(status=204)
+        elif isinstance(body, bytes):
             route.fulfill(status=status, body=body, content_type="image/png")
         else:
             revision = body.get("revision") if isinstance(body, dict) else None
@@ -75,7 +78,7 @@ class FakeApi:
                    "created_at": "2026-01-01T00:00:00Z", "role": self.role, "owner": "fake-owner"}
         routes = {
             ("POST", "/auth/token"): lambda: {"access_token": "fake", "token_type": "bearer"},
-            ("GET", "/projects"): lambda: [project],
+            ("GET", "/projects"): lambda: [] if self.deleted else [project],
             ("GET", "/projects/1"): lambda: project,
             ("GET", "/projects/1/versions"): self.versions,
             ("GET", "/projects/1/members"): lambda: [{"username": "fake-user", "role": "owner"}],
@@ -101,6 +104,17 @@ class FakeApi:
             return 200, PNG
         if path.startswith("/projects/1/edits") and method in ("POST", "PUT") and self.refuse_edits:
             return 403, {"detail": "your role in project 1 is viewer; this needs editor"}
+        if path.startswith("/projects/1/images/") and method == "DELETE":
+            image_id = int(path.rsplit("/", 1)[1])
+            if any(c["image_id"] == image_id and c["center"] for c in self.cameras):
+                return 409, {"detail": f"image {image_id:04d}.jpg is used by version(s) v{self.head}"}
+            self.cameras = [c for c in self.cameras if c["image_id"] != image_id]
+            return 204, {}
+        if path == "/projects/1" and method == "DELETE":
+            self.deleted = True
+            return 204, {}
+        if path.endswith("/export"):
+            return 200, b"PK fake export"
         if path == "/projects/1/reconstruct" and method == "POST":
             return 409, {"detail": "a job of project 1 is queued or running"}
         if path == "/projects/1/edits" and method == "POST":

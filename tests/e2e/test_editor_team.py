@@ -308,3 +308,36 @@ def test_a_new_head_made_elsewhere_is_noticed_and_the_edits_follow_it(page):
     page.wait_for_selector("body[data-ready='1/2']")
     page.wait_for_selector("#notice:has-text('carried onto the head v2')")
     assert fake.edit["base_version_id"] == 2 and page.get_attribute("#scene", "data-moved") == "2"
+
+
+def test_delete_image_export_a_version_and_delete_the_project_from_the_ui(page, console):
+    """The Images panel deletes the selected images (the server keeps one a version uses and
+    says why), each version row exports COLMAP or PLY, the project list deletes a project."""
+    console.allow.append("409")
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='2']").click()
+    page.locator("#strip .thumb[data-id='6']").click(modifiers=["Control"])
+    page.locator("#images-panel summary").click()
+    page.once("dialog", lambda d: d.accept())
+    page.get_by_role("button", name="Delete selected images").click()
+    page.wait_for_selector("#upload-status:has-text('0006.jpg deleted')")
+    status = page.inner_text("#upload-status")
+    assert "0002.jpg kept: image 0002.jpg is used by version(s) v1" in status, status
+    assert ("DELETE", "/api/v1/projects/1/images/6") in fake.log
+    assert 6 not in [c["image_id"] for c in fake.cameras]
+
+    page.locator("#versions-panel summary").click()
+    row = page.locator("#version-list li[data-version-id='1']")
+    with page.expect_download() as download:
+        row.get_by_role("button", name="Export COLMAP").click()
+    assert download.value.suggested_filename == "fake-v1.zip"
+    assert ("GET", "/api/v1/projects/1/versions/1/export") in fake.log
+
+    page.evaluate("location.hash = '#/'")
+    page.wait_for_selector("body[data-ready=projects]")
+    questions = []
+    page.once("dialog", lambda d: (questions.append(d.message), d.accept()))
+    page.locator("#project-list li[data-project-id='1']").get_by_role("button", name="Delete").click()
+    page.wait_for_selector("#project-list:has-text('No projects yet')")
+    assert ("DELETE", "/api/v1/projects/1") in fake.log and "cannot be undone" in questions[0]
