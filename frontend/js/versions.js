@@ -145,7 +145,7 @@ export class VersionsPanel {
       sharedFrame: String(shared) });
     this.summary.textContent = `v${otherId} → v${this.store.version.id}: ${moved.length} of ${common.length} ` +
       (shared ? "cameras moved (arrows)." : `cameras moved; v${otherId} is in another frame (a separate ` +
-        "reconstruction), so no arrows are drawn.");
+        "reconstruction), so no arrows are drawn.") + movedNames(moved);
     this.clearButton.hidden = false;
   }
 
@@ -157,6 +157,13 @@ export class VersionsPanel {
     delete this.summary.dataset.sharedFrame;
     this.clearButton.hidden = true;
   }
+}
+
+// " Moved: #3 0002.jpg, #4 0003.jpg, …": which cameras, in capture order (at most a dozen named).
+function movedNames(moved) {
+  if (!moved.length) return "";
+  const named = [...moved].sort((a, b) => a.seq - b.seq).slice(0, 12).map((c) => `#${c.seq + 1} ${c.name}`);
+  return ` Moved: ${named.join(", ")}${moved.length > 12 ? `, and ${moved.length - 12} more` : ""}.`;
 }
 
 const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
