@@ -7,6 +7,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import re
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
@@ -47,6 +48,7 @@ class FakeApi:
         self.compare_answer = compare
         self.role, self.refuse_edits, self.jobs = role, refuse_edits, list(jobs)
         self.deleted = False
+        self.uploads: list[list[str]] = []  # file names per upload request
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
@@ -115,6 +117,8 @@ class FakeApi:
             return 204, {}
         if path.endswith("/export"):
             return 200, b"PK fake export"
+        if path == "/projects/1/images" and method == "POST":
+            return self.upload(request)
         if path == "/projects/1/reconstruct" and method == "POST":
             return 409, {"detail": "a job of project 1 is queued or running"}
         if path == "/projects/1/edits" and method == "POST":
@@ -129,6 +133,16 @@ class FakeApi:
             self.edit = {**self.edit, **request.post_data_json, "revision": self.edit["revision"] + 1}
             return 200, self.edit
         return 404, {"detail": f"the fake API has no {method} {path}"}
+
+    def upload(self, request) -> tuple[int, object]:
+        """All or nothing, as the server: a file whose name starts with "bad" fails the request."""
+        names = re.findall(r'filename="([^"]+)"', request.post_data_buffer.decode("latin-1"))
+        self.uploads.append(names)
+        bad = [n for n in names if n.startswith("bad")]
+        if bad:
+            return 422, {"detail": f"{bad[0]}: not a readable JPEG or PNG image (cannot identify image file)"}
+        return 201, [{"id": 100 + i, "name": n, "width": 8, "height": 8, "seq": i}
+                     for i, n in enumerate(names)]
 
     def rebase(self, request) -> tuple[int, dict]:
         """Carry the edit set onto the head: cameras on the head's images, deletions of its pairs."""

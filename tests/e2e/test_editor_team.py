@@ -341,3 +341,23 @@ def test_delete_image_export_a_version_and_delete_the_project_from_the_ui(page, 
     page.locator("#project-list li[data-project-id='1']").get_by_role("button", name="Delete").click()
     page.wait_for_selector("#project-list:has-text('No projects yet')")
     assert ("DELETE", "/api/v1/projects/1") in fake.log and "cannot be undone" in questions[0]
+
+
+def test_an_upload_goes_in_batches_and_one_bad_file_costs_only_itself(page, console, tmp_path):
+    """Ten files, one bad: the first batch of eight is refused whole (all or nothing), so it is
+    sent again file by file; nine images are stored and the bad one is named, without a path."""
+    console.allow.append("422")
+    fake = FakeApi()
+    open_fake(page, fake)
+    names = [f"{i:02d}.jpg" for i in range(9)] + ["bad-03.jpg"]
+    names[3], names[9] = names[9], names[3]
+    for name in names:
+        (tmp_path / name).write_bytes(b"\xff\xd8 not really a jpeg")
+    page.locator("#images-panel summary").click()
+    page.set_input_files("#upload-form input[type=file]", [str(tmp_path / n) for n in names])
+    page.get_by_role("button", name="Upload", exact=True).click()
+    page.wait_for_selector("#images-panel[data-uploaded='9'][data-refused='1']")
+    status = page.inner_text("#upload-status")
+    assert status.startswith("Uploaded 9 images.") and "Not uploaded: bad-03.jpg: not a readable" in status
+    assert "/" not in status and page.locator("#upload-progress").is_visible()
+    assert [len(batch) for batch in fake.uploads] == [8, 1, 1, 1, 1, 1, 1, 1, 1, 2]
