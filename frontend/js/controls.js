@@ -72,6 +72,11 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
       m: actions["show-matching"], t: actions["show-frusta"], o: actions["show-order"], d: showPreview,
       0: () => view({ fit: true }),
       "+": () => view({ zoom: 1.25 }), "=": () => view({ zoom: 1.25 }), "-": () => view({ zoom: 0.8 }),
+      "?": () => {
+        $("keys-panel").open = true;
+        $("keys-panel").scrollIntoView({ block: "nearest" });
+        $("keys-panel").querySelector("summary").focus();
+      },
     };
     const handler = keys[e.key.toLowerCase()];
     if (!handler) return false;
@@ -104,6 +109,27 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
       $("show-frusta").setAttribute("aria-pressed", String(store.showFrusta));
       $("show-order").setAttribute("aria-pressed", String(store.showOrder));
       root.dataset.selectionCount = String(n);
+      warnFarPlacements($("placement-warning"), store, draft, editor);
     },
   };
+}
+
+const FAR_RANGES = 4; // a placement this many median ranges from every matched camera is suspect
+
+// A placement far from every camera it matches (behind the facade, 60 units away) is most likely
+// a slip: say so beside the selection, naming the cameras and the distance.
+function warnFarPlacements(box, store, draft, editor) {
+  const far = [];
+  for (const id of draft.cameras.keys()) {
+    const cam = store.byId.get(id);
+    const pose = cam && editor.poseOf(cam);
+    const partners = [...(store.pairs.get(id)?.keys() ?? [])].map((p) => store.byId.get(p)).filter(Boolean)
+      .map((c) => editor.poseOf(c)).filter(Boolean);
+    if (!pose || !partners.length) continue;
+    const nearest = Math.min(...partners.map((p) => Math.hypot(p.x - pose.x, p.y - pose.y)));
+    if (nearest > FAR_RANGES * editor.medianRange) far.push(`${cam.name} (${nearest.toPrecision(3)} units)`);
+  }
+  box.hidden = !far.length;
+  box.textContent = far.length ? `Check the placement: ${far.join(", ")} from the nearest camera it ` +
+    `matches, over ${FAR_RANGES}× the typical range (${editor.medianRange.toPrecision(3)}).` : "";
 }

@@ -361,3 +361,20 @@ def test_an_upload_goes_in_batches_and_one_bad_file_costs_only_itself(page, cons
     assert status.startswith("Uploaded 9 images.") and "Not uploaded: bad-03.jpg: not a readable" in status
     assert "/" not in status and page.locator("#upload-progress").is_visible()
     assert [len(batch) for batch in fake.uploads] == [8, 1, 1, 1, 1, 1, 1, 1, 1, 2]
+
+
+def test_an_absurd_placement_is_warned_and_question_mark_opens_the_keys(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='5']").click()
+    page.locator("#scene").focus()
+    page.keyboard.press("Shift+ArrowUp")  # 0.5 units: nothing to say
+    assert page.locator("#placement-warning").is_hidden()
+    for _ in range(20):
+        page.keyboard.press("Shift+ArrowUp")  # 10.5 units from its partners, range 2
+    warning = page.locator("#placement-warning")
+    warning.wait_for(state="visible")
+    assert "0005.jpg" in warning.inner_text() and "Check the placement" in warning.inner_text()
+    page.keyboard.press("?")
+    assert page.locator("#keys-panel").get_attribute("open") is not None
+    assert "Shift+wheel" in page.inner_text("#keys-panel")
