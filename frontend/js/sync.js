@@ -32,7 +32,8 @@ export class DraftSync {
   async attach() {
     const list = (await get(this.base)) ?? [];
     const here = newest(list.filter((e) => e.base_version_id === this.store.version.id));
-    const stale = newest(list.filter((e) => e.base_version_id < this.store.version.id));
+    // an edit set whose revision was applied made a version already: it is not carried again
+    const stale = newest(list.filter((e) => e.base_version_id < this.store.version.id && !e.applied_version_id));
     if (here) this.adopt(await get(`${this.base}/${here.id}`));
     else if (stale && this.store.canWrite && this.store.version.id === this.store.project.head_version_id) {
       await this.rebase(stale);

@@ -378,3 +378,11 @@ def test_an_absurd_placement_is_warned_and_question_mark_opens_the_keys(page):
     page.keyboard.press("?")
     assert page.locator("#keys-panel").get_attribute("open") is not None
     assert "Shift+wheel" in page.inner_text("#keys-panel")
+
+
+def test_an_applied_edit_set_is_not_carried_onto_the_head_it_made(page):
+    fake = FakeApi(head=2)
+    fake.edit = {**stale_edit(1), "applied_version_id": 2}
+    open_fake(page, fake)
+    assert ("POST", "/api/v1/projects/1/edits/1/rebase") not in fake.log
+    assert page.get_attribute("#scene", "data-moved") == "" and fake.edit["base_version_id"] == 1

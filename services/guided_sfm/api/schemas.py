@@ -163,6 +163,7 @@ class EditSetOut(Out):
     tolerances: dict[str, float]
     updated_by: str | None
     updated_at: datetime
+    applied_version_id: int | None = None  # the version an apply of this revision made, if any
 
 
 class RebaseOut(EditSetOut):

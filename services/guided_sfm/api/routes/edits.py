@@ -22,11 +22,13 @@ from guided_sfm.db.models import EditSetRow, Job, Version
 router = APIRouter(prefix="/projects/{pid}/edits", tags=["edits"])
 
 
-def out(row: EditSetRow, response: Response | None = None) -> EditSetOut:
+def out(row: EditSetRow, response: Response | None = None,
+        applied: dict[tuple[int, int], int] | None = None) -> EditSetOut:
     if response is not None:
         response.headers["ETag"] = f'"{row.revision}"'
     return EditSetOut(id=row.id, revision=row.revision, updated_at=row.updated_at,
                       updated_by=row.updated_by.username if row.updated_by else None,
+                      applied_version_id=(applied or {}).get((row.id, row.revision)),
                       **{k: v for k, v in row.body.items() if k in EditSetIn.model_fields})
 
 
@@ -38,12 +40,13 @@ def create(body: EditSetIn, project: EditorProject, session: SessionDep, user: C
 
 @router.get("", response_model=list[EditSetOut])
 def list_edit_sets(project: ViewerProject, session: SessionDep) -> list[EditSetOut]:
-    return [out(row) for row in queries.edit_sets(session, project.id)]
+    applied = queries.applied_revisions(session, project.id)
+    return [out(row, applied=applied) for row in queries.edit_sets(session, project.id)]
 
 
 @router.get("/{eid}", response_model=EditSetOut)
-def read(row: ViewerEditSet, response: Response) -> EditSetOut:
-    return out(row, response)
+def read(row: ViewerEditSet, session: SessionDep, response: Response) -> EditSetOut:
+    return out(row, response, queries.applied_revisions(session, row.project_id))
 
 
 @router.put("/{eid}", response_model=EditSetOut)
