@@ -164,6 +164,7 @@ export class SceneView {
     this.drawLines(t, px);
     drawArrows(ctx, t, this.arrows, { colour: colours.arrow, px });
     this.drawCameras(ctx, t, dynamic, px);
+    this.drawHoverRing(t, posed, px);
     this.drawOrderLabels(t, ordered, px);
     if (posed.length || this.points.length) this.drawScale(px);
     this.frame += 1;
@@ -214,6 +215,17 @@ export class SceneView {
       key[k++] = p.range ?? -1;
     }
     return key;
+  }
+
+  drawHoverRing(t, posed, px) {
+    const hovered = posed.find(([cam]) => cam.id === this.hovered);
+    if (!hovered) return;
+    const [sx, sy] = t(hovered[1].x, hovered[1].y);
+    this.ctx.beginPath();
+    this.ctx.arc(sx, sy, 8 * px, 0, 2 * Math.PI);
+    this.ctx.lineWidth = 2 * px;
+    this.ctx.strokeStyle = this.colours.hovered;
+    this.ctx.stroke();
   }
 
   // The capture order: a thin line joining consecutive placed cameras (by seq; drawn each frame,
@@ -279,9 +291,10 @@ export class SceneView {
     }
   }
 
+  // Selected wins over hovered (a ring shows the hover), so hovering never hides a selection.
   categoryOf(cam) {
-    if (cam.id === this.hovered) return "hovered";
     if (this.selected.has(cam.id)) return "selected";
+    if (cam.id === this.hovered) return "hovered";
     if (this.flagged.has(cam.id)) return "flagged";
     if (!cam.registered) return "unregistered";
     return this.moved.has(cam.id) ? "moved" : "camera";

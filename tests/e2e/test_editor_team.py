@@ -386,3 +386,16 @@ def test_an_applied_edit_set_is_not_carried_onto_the_head_it_made(page):
     open_fake(page, fake)
     assert ("POST", "/api/v1/projects/1/edits/1/rebase") not in fake.log
     assert page.get_attribute("#scene", "data-moved") == "" and fake.edit["base_version_id"] == 1
+
+
+def test_hovering_a_selected_camera_keeps_it_shown_as_selected(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='3']").click()
+    page.locator("#strip .thumb[data-id='3']").hover()
+    page.wait_for_function("document.querySelector('#scene').dataset.hovered === '3'")
+    scale = view(page)[2]
+    *centre, _ = pixel(page, 2.0, 0.0)  # camera 3 sits at (2, 0)
+    *ring, _ = pixel(page, 2.0 - 8 / scale, 0.0)
+    assert max(abs(a - b) for a, b in zip(centre, (0xDD, 0x6B, 0x20), strict=True)) < 40, centre  # selected
+    assert max(abs(a - b) for a, b in zip(ring, (0x00, 0xA3, 0xC4), strict=True)) < 60, ring  # hover ring
