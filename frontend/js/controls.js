@@ -42,6 +42,7 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
     "flag-button": () => editor.toggleFlag(),
     "place-button": () => editor.placeSelectionAtCentre(),
     "reset-button": () => editor.resetSelected(),
+    "scale-button": () => setScale(),
   };
   for (const [id, handler] of Object.entries(actions)) on(id, handler);
 
@@ -57,6 +58,25 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
     const handled = e.altKey ? panKey(e) : editor.handleKey(e) || viewKey(e);
     if (handled) e.preventDefault();
   }, { signal });
+
+  // A known distance between two selected cameras sets metres per model unit (kept per project in
+  // this browser); an empty answer goes back to the model's units.
+  function setScale() {
+    const poses = editor.selectedPoses();
+    if (poses.length !== 2) return notify("Select exactly two placed cameras whose distance you know.");
+    const units = Math.hypot(poses[0].x - poses[1].x, poses[0].y - poses[1].y);
+    const answer = window.prompt(`Distance between ${poses[0].name} and ${poses[1].name} in metres ` +
+      `(${units.toPrecision(3)} units apart in the scene); leave empty to show units again:`);
+    if (answer === null) return undefined;
+    const metres = Number(answer.replace(",", "."));
+    if (answer.trim() && !(metres > 0 && units > 0)) return notify(`"${answer}" is not a distance in metres.`);
+    store.metresPerUnit = answer.trim() ? metres / units : null;
+    const key = `gsfm.scale.${store.project.id}`;
+    if (store.metresPerUnit) localStorage.setItem(key, String(store.metresPerUnit));
+    else localStorage.removeItem(key);
+    store.emit("display");
+    return undefined;
+  }
 
   // Alt+arrows pan the view by a tenth of its size.
   function panKey(e) {

@@ -127,12 +127,15 @@ export class ProjectPage {
     view.setArrows([]);
     store.showFrusta = view.showFrusta; // the display toggles outlive the page, like the view
     store.showOrder = view.showOrder;
+    store.metresPerUnit = Number(localStorage.getItem(`gsfm.scale.${store.project.id}`)) || null;
+    view.metresPerUnit = store.metresPerUnit;
     Object.assign(view.canvas.dataset, { step: String(editor.step), rotateStep: String(editor.rotateStep) });
     store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
     store.on("lines", (lines) => view.setLines(lines));
     store.on("arrows", (arrows) => view.setArrows(arrows));
     store.on("display", () => {
-      Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder });
+      Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder,
+        metresPerUnit: store.metresPerUnit });
       view.requestDraw();
     });
     store.on("view", (command) => view.command(command));

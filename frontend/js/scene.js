@@ -23,6 +23,7 @@ export class SceneView {
     this.hovered = null;
     this.showFrusta = false;
     this.showOrder = true; // the capture-order line and labels
+    this.metresPerUnit = null; // set from a known distance: the scale bar then speaks metres
     this.lines = []; // [{a, b, kind: "match"|"cut"|"estimate", weight}]
     this.arrows = []; // [{from: [x, y], to: [x, y]}]
     this.colours = readColours(canvas);
@@ -174,9 +175,11 @@ export class SceneView {
 
   drawScale(px) {
     const { ctx, canvas, colours } = this;
-    const length = drawScaleBar(ctx, { width: canvas.width, height: canvas.height, scale: this.view.scale,
+    const [length, label] = drawScaleBar(ctx, { width: canvas.width, height: canvas.height, scale: this.view.scale,
+      metresPerUnit: this.metresPerUnit,
       px, ink: colours.ink, background: colours.scaleBg });
     canvas.dataset.scaleBar = String(length);
+    canvas.dataset.scaleLabel = label;
   }
 
   // Points and every camera that is neither selected nor hovered, redrawn only when they change

@@ -399,3 +399,24 @@ def test_hovering_a_selected_camera_keeps_it_shown_as_selected(page):
     *ring, _ = pixel(page, 2.0 - 8 / scale, 0.0)
     assert max(abs(a - b) for a, b in zip(centre, (0xDD, 0x6B, 0x20), strict=True)) < 40, centre  # selected
     assert max(abs(a - b) for a, b in zip(ring, (0x00, 0xA3, 0xC4), strict=True)) < 60, ring  # hover ring
+
+
+def test_a_known_distance_makes_the_scale_bar_speak_metres(page):
+    """Cameras 1 and 3 are 2 units apart; told they are 10 m apart, the bar is labelled in metres
+    and its length in units is the metres over 5; the setting outlives a reload of the page."""
+    fake = FakeApi()
+    open_fake(page, fake)
+    assert page.get_attribute("#scene", "data-scale-label").endswith(("unit", "units"))
+    page.locator("#strip .thumb[data-id='1']").click()
+    page.locator("#strip .thumb[data-id='3']").click(modifiers=["Control"])
+    questions = []
+    page.once("dialog", lambda d: (questions.append(d.message), d.accept("10")))
+    page.get_by_role("button", name="Set scale…").click()
+    page.wait_for_function("document.querySelector('#scene').dataset.scaleLabel.endsWith(' m')")
+    label = page.get_attribute("#scene", "data-scale-label")
+    length = float(page.get_attribute("#scene", "data-scale-bar"))
+    assert "0001.jpg and 0003.jpg" in questions[0] and "2.00 units apart" in questions[0]
+    assert abs(float(label.removesuffix(" m")) - 5 * length) < 1e-6, (label, length)
+    page.reload()
+    page.wait_for_selector("body[data-ready='1/1']")
+    page.wait_for_function("document.querySelector('#scene').dataset.scaleLabel.endsWith(' m')")
