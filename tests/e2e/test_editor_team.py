@@ -76,7 +76,8 @@ def test_fit_frames_the_cameras(page, stray):
 WRITE_CONTROLS = ["#apply-button", "#preview-button", "#undo", "#redo", "#flag-button", "#place-button",
                   "#reset-button", "#delete-matching", "#keep-matching", "#rule-select", "#fov-slider",
                   "#range-slider", "#upload-form button[type=submit]", "#upload-form input[type=file]",
-                  "#reconstruct-button", "#version-list button[data-action=restore]", "#member-form button"]
+                  "#reconstruct-button", "#version-list button[data-action=restore]", "#member-form button",
+                  "#match-list input", "#delete-images"]
 
 
 def usable(page, selector: str) -> list[str]:
