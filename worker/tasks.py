@@ -9,6 +9,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from guided_sfm.actions import runner
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
+from worker.deliverer import Deliverer
 from worker.sweeper import Sweeper
 
 RUN_JOB = "guided_sfm.run_job"
@@ -38,10 +39,13 @@ def start_sweeper(sender, **_kwargs) -> None:
     sweeper = Sweeper(settings_of(app), lambda job_id: app.send_task(RUN_JOB, args=[job_id]))
     app._guided_sweeper = sweeper
     sweeper.start()
+    app._guided_deliverer = deliverer = Deliverer(settings_of(app))
+    deliverer.start()
 
 
 @signals.worker_shutdown.connect(dispatch_uid="guided_sfm.stop_sweeper")
 def stop_sweeper(sender, **_kwargs) -> None:
-    sweeper = getattr(sender.app, "_guided_sweeper", None) if sender is not None else None
-    if sweeper is not None:
-        sweeper.stop()
+    for name in ("_guided_sweeper", "_guided_deliverer"):
+        thread = getattr(sender.app, name, None) if sender is not None else None
+        if thread is not None:
+            thread.stop()

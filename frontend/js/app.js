@@ -1,10 +1,12 @@
 // Entry point: hash routes (#/, #/p/ID, #/p/ID/v/VID), sign-in, the project list, notices.
 import { ApiError, del, get, post, session, setUnauthorizedHandler, signIn, signUp } from "./api.js";
+import { Inbox } from "./inbox.js";
 import { JobStatus } from "./jobs.js";
 import { ProjectPage } from "./project.js";
 
 const $ = (id) => document.getElementById(id);
 const jobStatus = new JobStatus($("status"));
+const inbox = new Inbox($("inbox-button"), $("inbox"));
 let page = null;
 
 function notify(text, kind = "info") {
@@ -47,6 +49,8 @@ function forgetPage() {
 
 async function route() {
   forgetPage();
+  if (session.token) inbox.start();
+  else inbox.stop();
   if (!session.token) {
     crumbs([]);
     show("view-auth");

@@ -1,6 +1,7 @@
 // The project page: loads a version's scene, pairs and edit set, builds the shared state (store,
 // draft, selection, editor) and the panels, and wires the store's events to the scene view. The
 // only module that imports panels: they never import each other.
+import { ActivityPanel } from "./activity.js";
 import { get, post } from "./api.js";
 import { Draft } from "./draft.js";
 import { Editor } from "./editor.js";
@@ -14,6 +15,7 @@ import { Selection } from "./selection.js";
 import { adjacency, camerasOf, createStore, pointsOf } from "./state.js";
 import { Strip } from "./strip.js";
 import { DraftSync } from "./sync.js";
+import { TeamPanel } from "./team.js";
 import { bindControls } from "./controls.js";
 import { UploadPanel } from "./upload.js";
 import { VersionsPanel } from "./versions.js";
@@ -50,6 +52,7 @@ export class ProjectPage {
     this.showBanner(null);
     await Promise.all([this.versions?.load(), this.loadMembers(), this.watchRunningJob()]);
     if (this.sync && !store.readOnly) await this.sync.attach();
+    await Promise.all([this.team.poll(), this.activity.load().catch(() => {})]);
     this.refresh();
   }
 
@@ -108,6 +111,7 @@ export class ProjectPage {
     }
     this.upload = new UploadPanel(this.root.querySelector("#images-panel"), { ...ctx,
       onUploaded: () => { if (!store.version) this.reopen(); }, onJob: (job) => this.followJob(job) }, signal);
+    this.wireTeam(ctx, signal);
     bindPointer(view.canvas, { ...ctx, view }, signal);
     const page = { flush: () => this.sync?.flush(), apply: () => this.apply() };
     this.controls = bindControls(this.root, { ...ctx, page }, signal);
@@ -117,6 +121,15 @@ export class ProjectPage {
     };
     for (const name of ["draft", "selection", "preview", "display"]) store.on(name, () => this.refresh());
     store.on("role", () => { this.showBanner(null); this.refresh(); });
+  }
+
+  // Comments, review and presence (polled), and the activity feed, refreshed with each poll.
+  wireTeam(ctx, signal) {
+    this.team = new TeamPanel(this.root.querySelector("#team-panel"), { ...ctx, view: this.view,
+      username: this.username, editSetId: () => this.sync?.editId ?? null,
+      flush: () => this.sync?.flush() }, signal);
+    this.activity = new ActivityPanel(this.root.querySelector("#activity-panel"), ctx, signal);
+    this.team.afterPoll = () => this.activity.load().catch(() => {});
   }
 
   // The scene view draws what the store's events say; it is kept across pages, so it starts clean.

@@ -36,6 +36,7 @@ export class SceneView {
   // New cameras and points; the poses are the model's until an editor sets poseOf.
   setScene(cameras, points) {
     this.poseOf = modelPose;
+    this.overlay = null;
     this.selected = new Set();
     this.moved = new Set();
     this.flagged = new Set();
@@ -168,6 +169,7 @@ export class SceneView {
     this.drawHoverRing(t, posed, px);
     this.drawOrderLabels(t, ordered, px);
     if (posed.length || this.points.length) this.drawScale(px);
+    this.overlay?.(ctx, t, px); // e.g. comment pins, drawn by their panel
     this.frame += 1;
     Object.assign(canvas.dataset, { frame: String(this.frame), hovered: String(this.hovered ?? ""),
       view: `${this.view.cx},${this.view.cy},${this.view.scale}` });

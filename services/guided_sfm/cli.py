@@ -101,7 +101,7 @@ def cmd_scene(args: argparse.Namespace) -> None:
         print_json(scene.to_dict())
 
 
-def _read_json(path: str) -> object:
+def read_json(path: str) -> object:
     try:
         return json.loads(Path(path).read_text())
     except FileNotFoundError as exc:
@@ -115,7 +115,7 @@ def cmd_prune(args: argparse.Namespace) -> None:
     from guided_sfm.core.workspace import Workspace, pruning_record
 
     base = Workspace(args.workspace)
-    edits = parse_edits(_read_json(args.edits), base.image_ids())
+    edits = parse_edits(read_json(args.edits), base.image_ids())
     outcome = base.preview(edits) if args.dry_run else base.prune(edits, Workspace(args.new_workspace))
     record = pruning_record(outcome, base.image_names())
     if args.json:
@@ -226,9 +226,10 @@ def _add(sub, name: str, func: Callable, help_: str, arguments: list[tuple]) -> 
 
 
 def _register_service(sub) -> None:
-    from guided_sfm import service_cli
+    from guided_sfm import remote_cli, service_cli
 
     service_cli.register(sub)
+    remote_cli.register(sub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

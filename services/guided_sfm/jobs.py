@@ -12,8 +12,8 @@ from collections.abc import Callable
 from datetime import timedelta
 from typing import Any
 
-from sqlalchemy import select, update
-from sqlalchemy.exc import IntegrityError, OperationalError
+from sqlalchemy import case, select, update
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm.db.models import Job, Project, utcnow
@@ -49,6 +49,29 @@ def claim(session: Session, job_id: int) -> bool:
     )
     session.commit()
     return result.rowcount == 1
+
+
+# The queue's order: interactive applies (seconds) before reconstructions and imports (minutes to
+# hours), then first come first served; one active job per project keeps projects from crowding out.
+QUEUE_ORDER = (case((Job.kind == "apply", 0), else_=1), Job.created_at, Job.id)
+
+
+def queued_in_order(session: Session) -> list[int]:
+    """Every queued job's id, next to run first."""
+    return list(session.scalars(select(Job.id).where(Job.state == "queued").order_by(*QUEUE_ORDER)))
+
+
+def claim_next(session: Session) -> int | None:
+    """Claim the first queued job in the queue's order that no other worker took first; its id."""
+    for job_id in queued_in_order(session):
+        if claim(session, job_id):
+            return job_id
+    return None
+
+
+def queue_positions(session: Session) -> dict[int, int]:
+    """{job id: position} of the queued jobs (1 = next to run)."""
+    return {job_id: index for index, job_id in enumerate(queued_in_order(session), start=1)}
 
 
 def finish(session: Session, job_id: int, state: str, *, message: str = "", error: str | None = None,
@@ -100,8 +123,8 @@ class Reporter:
                 session.execute(update(Job).where(Job.id == self.job_id, Job.state == "running")
                                 .values(heartbeat_at=utcnow(), **values))
                 session.commit()
-        except OperationalError:  # a busy SQLite file: progress is advisory, the next write retries
-            log.warning("job %s: progress write skipped (database busy)", self.job_id)
+        except Exception:  # database busy or away: progress is advisory, the next write retries
+            log.warning("job %s: progress write skipped", self.job_id, exc_info=True)
 
 
 def beat(session: Session, job_id: int) -> bool:
@@ -123,21 +146,29 @@ def lost_messages(session: Session, older_than: float) -> list[int]:
 
 def recover_stale(session: Session, older_than: float, max_attempts: int = 2) -> tuple[list[int], list[int]]:
     """Running jobs whose heartbeat stopped (their worker died): queued again while they have
-    attempts left, else failed. Returns (requeued ids, failed ids); the head is never touched."""
+    attempts left, else failed. Each change is a compare-and-set on the lease as read (still
+    running, same attempt, heartbeat still stale), so two sweepers never both requeue one run.
+    Returns (requeued ids, failed ids); the head is never touched."""
     cutoff = utcnow() - timedelta(seconds=older_than)
     stale = session.execute(select(Job.id, Job.attempts).where(Job.state == "running",
                                                                Job.heartbeat_at < cutoff)).all()
     requeued, failed = [], []
     for job_id, attempts in stale:
+        lease = update(Job).where(Job.id == job_id, Job.state == "running", Job.attempts == attempts,
+                                  Job.heartbeat_at < cutoff)
         if attempts < max_attempts:
-            session.execute(update(Job).where(Job.id == job_id, Job.state == "running").values(
+            changed = session.execute(lease.values(
                 state="queued", stage="queued", progress=0.0, enqueued_at=utcnow(), heartbeat_at=None,
-                message=f"queued again: the worker running attempt {attempts} stopped"))
-            requeued.append(job_id)
+                message=f"queued again: the worker running attempt {attempts} stopped")).rowcount
+            if changed:
+                requeued.append(job_id)
         else:
-            finish(session, job_id, "failed", error=f"the worker running this job stopped (no heartbeat "
-                   f"for {older_than:.0f} s, attempt {attempts}); the project's head is unchanged")
-            failed.append(job_id)
+            error = (f"the worker running this job stopped (no heartbeat for {older_than:.0f} s, "
+                     f"attempt {attempts}); the project's head is unchanged")
+            changed = session.execute(lease.values(
+                state="failed", stage="failed", finished_at=utcnow(), error=error)).rowcount
+            if changed:
+                failed.append(job_id)
     session.commit()
     return requeued, failed
 

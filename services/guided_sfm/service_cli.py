@@ -49,7 +49,18 @@ def cmd_api(args: argparse.Namespace) -> None:
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     upgrade(settings.database_url)
     app = create_app(settings, submitter(make_celery(settings)))
+    _reconcile(app.state.sessions, settings)
     uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+
+
+def _reconcile(sessions, settings: Settings) -> None:
+    """Orphans a crash left (files without rows) go before the API answers."""
+    from guided_sfm.actions.reconcile import reconcile_store
+
+    try:
+        reconcile_store(sessions, settings)
+    except Exception:  # never keep the API from starting; the worker's sweeper tries again
+        log.warning("reconcile at start failed", exc_info=True)
 
 
 def cmd_worker(_args: argparse.Namespace) -> None:

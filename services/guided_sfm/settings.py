@@ -30,6 +30,7 @@ class Settings:
     threads: int = 2
     open_signup: bool = True
     max_upload_mb: int = 1024
+    max_image_mpx: int = 100  # larger images are refused from their header, before any decode
     secret_key: str | None = None
     token_minutes: int = 7 * 24 * 60
     sweep_seconds: float = 30.0  # sweeper period
@@ -37,6 +38,13 @@ class Settings:
     stale_seconds: float = 60.0  # a running job silent this long lost its worker
     requeue_seconds: float = 60.0  # a queued job untouched this long lost its message
     max_attempts: int = 2  # a job whose worker died runs again until it has started this often
+    webhook_allow_private: bool = False  # webhooks to loopback/private addresses (tests, intranets)
+    webhook_retry_seconds: float = 10.0  # first retry after a failed delivery; doubles each time
+    webhook_attempts: int = 6  # deliveries given up after this many tries
+    webhook_timeout_seconds: float = 5.0  # per delivery request
+    orphan_grace_seconds: float = 600.0  # files without rows this old are removed (reconcile)
+    job_base_seconds: float = 3600.0  # a job's time limit: this much ...
+    job_seconds_per_image: float = 60.0  # ... plus this per image of its project
 
     @classmethod
     def from_env(cls, environ: Mapping[str, str] | None = None, **overrides: object) -> Settings:
@@ -49,6 +57,7 @@ class Settings:
             "database_url": env.get(PREFIX + "DATABASE_URL") or f"sqlite:///{data_dir / 'guided_sfm.db'}",
             "broker_url": env.get(PREFIX + "BROKER_URL") or "filesystem://",
             "open_signup": _bool(env, "OPEN_SIGNUP", True),
+            "webhook_allow_private": _bool(env, "WEBHOOK_ALLOW_PRIVATE", False),
             "secret_key": env.get(PREFIX + "SECRET_KEY") or None,
             **{name: _number(env, name.upper(), default) for name, default in _numeric_defaults()},
         }
@@ -64,8 +73,9 @@ class Settings:
         if urlsplit(self.broker_url).scheme not in BROKER_SCHEMES:
             raise SettingsError(
                 f"{PREFIX}BROKER_URL must be redis:// or filesystem://, got {self.broker_url!r}")
-        if self.threads < 1 or self.max_upload_mb < 1:
-            raise SettingsError(f"{PREFIX}THREADS and {PREFIX}MAX_UPLOAD_MB must be >= 1")
+        if min(self.threads, self.max_upload_mb, self.max_image_mpx) < 1:
+            raise SettingsError(
+                f"{PREFIX}THREADS, {PREFIX}MAX_UPLOAD_MB and {PREFIX}MAX_IMAGE_MPX must be >= 1")
         if self.secret_key is not None and len(self.secret_key) < 16:
             raise SettingsError(f"{PREFIX}SECRET_KEY must be at least 16 characters")
 

@@ -134,3 +134,24 @@ def test_existing_name_is_409_and_nothing_stored(client, owner_pid, session, set
 def test_unknown_image_is_404(client, owner_pid):
     headers, pid = owner_pid
     assert client.get(f"/api/v1/projects/{pid}/images/999/thumbnail", headers=headers).status_code == 404
+
+
+def test_upload_while_an_import_is_queued_is_409_and_stores_nothing(client, owner_pid, session, settings):
+    from guided_sfm.db.models import Job
+
+    headers, pid = owner_pid
+    session.add(Job(project_id=pid, kind="import", state="queued", stage="queued", params={}))
+    session.commit()
+    response = post(client, headers, pid, [("files", ("a.jpg", jpeg_bytes(), "image/jpeg"))])
+    assert response.status_code == 409 and "import" in response.json()["detail"], response.text
+    assert_nothing_stored(session, settings, pid)
+
+
+def test_an_orphan_file_without_a_row_is_replaced_by_the_next_upload(client, owner_pid, session, settings):
+    headers, pid = owner_pid
+    orphan = settings.artifacts_dir / "projects" / str(pid) / "images" / "a.jpg"
+    orphan.parent.mkdir(parents=True)
+    orphan.write_bytes(b"left by a crashed upload")
+    response = post(client, headers, pid, [("files", ("a.jpg", jpeg_bytes(), "image/jpeg"))])
+    assert response.status_code == 201, response.text
+    assert orphan.read_bytes() == jpeg_bytes()

@@ -1,9 +1,16 @@
 """Versions: list, scene (REST ids), pairs, restore, export, compare."""
 
 import io
+import shutil
 import zipfile
+from pathlib import Path
 
+import numpy as np
+import pycolmap
+
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import Job, Version
+from guided_sfm.storage import link_tree
 
 
 def vurl(s, vid, suffix=""):
@@ -72,13 +79,61 @@ def test_export_colmap_and_ply(client, reconstructed):
     assert client.get(vurl(s, s.vid, "/export?format=obj"), headers=s.owner).status_code == 422
 
 
-def test_compare_with_itself_is_still(client, reconstructed):
+def moved_workspace(source: Path, target: Path, name: str, shift: float, turn_deg: float) -> Path:
+    """A copy of `source` whose model is scaled by 2, turned and shifted (what compare must undo),
+    with camera `name` then moved by `shift` along world x and turned by `turn_deg` about its own y."""
+    shutil.copytree(source, target)
+    model = pycolmap.Reconstruction(target / "sparse" / "0")
+    frame = pycolmap.Sim3d(2.0, pycolmap.Rotation3d(rotation_z(30.0)), np.array([[1.0], [2.0], [3.0]]))
+    model.transform(frame)
+    image = next(i for i in model.images.values() if i.name == name)
+    cam_from_world = image.cam_from_world()
+    center = cam_from_world.inverse().translation + np.array([shift, 0.0, 0.0])
+    c, s = np.cos(np.radians(turn_deg)), np.sin(np.radians(turn_deg))
+    turn = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])  # about the camera's y axis
+    rotation = turn @ cam_from_world.rotation.matrix()
+    moved = pycolmap.Rigid3d(pycolmap.Rotation3d(rotation), (-rotation @ center).reshape(3, 1))
+    model.frame(image.frame_id).set_cam_from_world(image.camera_id, moved)
+    model.write(target / "sparse" / "0")
+    return target
+
+
+def rotation_z(degrees: float) -> np.ndarray:
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def publish_version(session, store, pid: int, workspace: Path) -> int:
+    """A new head version of the project from `workspace` (its images are already rows)."""
+    with store.staging(pid) as staging:
+        link_tree(workspace, staging / "ws")
+        Workspace(staging / "ws").write_meta({"image_dir": str(store.images_dir(pid))})
+        relative = store.publish(pid, staging / "ws")
+    version = Version(project_id=pid, kind="reconstruct", message="moved by a test", path=relative,
+                      stats=Workspace(workspace).stats())
+    session.add(version)
+    session.commit()
+    return version.id
+
+
+def test_compare_undoes_the_frame_and_finds_the_moved_camera(client, session, store, reconstructed,
+                                                            tiny_reconstruction, tmp_path):
     s = reconstructed
-    response = client.get(vurl(s, s.vid, f"/compare?to={s.vid}"), headers=s.owner)
+    name = sorted(s.image_ids)[5]
+    shift = 4.0  # units of the moved copy: far beyond the alignment's inlier band (2% of the extent)
+    other = publish_version(session, store, s.pid,
+                            moved_workspace(tiny_reconstruction, tmp_path / "ws", name, shift, 10.0))
+    response = client.get(vurl(s, s.vid, f"/compare?to={other}"), headers=s.owner)
     assert response.status_code == 200, response.text
-    cameras = response.json()["cameras"]
-    assert cameras and all(c["image_id"] in s.image_ids.values() for c in cameras)
-    assert max(c["moved"] for c in cameras) < 1e-6
+    cameras = {c["image_id"]: c for c in response.json()["cameras"]}
+    assert set(cameras) == set(s.image_ids.values())
+    moved = cameras.pop(s.image_ids[name])
+    # in the first version's units (the copy is twice as large), after undoing the similarity
+    assert abs(moved["moved"] - shift / 2) < 1e-3 and abs(moved["rotated_deg"] - 10.0) < 1e-3
+    assert max(c["moved"] for c in cameras.values()) < 1e-6
+    assert max(c["rotated_deg"] for c in cameras.values()) < 1e-4
+    itself = client.get(vurl(s, s.vid, f"/compare?to={s.vid}"), headers=s.owner).json()["cameras"]
+    assert max(c["moved"] for c in itself) < 1e-6
     assert client.get(vurl(s, s.vid, "/compare?to=99999"), headers=s.owner).status_code == 404
 
 

@@ -3,6 +3,8 @@
 import hashlib
 import sqlite3
 
+import pytest
+
 from guided_sfm.core import colmap_db, workspace
 
 
@@ -45,3 +47,34 @@ def test_inlier_matches_are_ordered_as_the_pair_key(tiny_workspace_ro):
     assert sorted(map(tuple, single)) == sorted(map(tuple, table[pair]))
     kp1, kp2 = (colmap_db.keypoints(database, i) for i in pair)
     assert table[pair][:, 0].max() < len(kp1) and table[pair][:, 1].max() < len(kp2)
+
+
+def _plain_colmap_tables(path):
+    conn = sqlite3.connect(path)
+    for table in colmap_db.COLMAP_TABLES:
+        conn.execute(f"CREATE TABLE {table} (id INTEGER PRIMARY KEY)")
+    return conn
+
+
+@pytest.mark.parametrize("extra, named", [
+    ("CREATE TRIGGER t AFTER INSERT ON cameras BEGIN DELETE FROM images; END", "trigger t"),
+    ("CREATE VIEW v AS SELECT 1", "view v"),
+    ("DROP TABLE matches", "no table matches"),
+])
+def test_an_outside_database_holds_only_colmap_tables(tmp_path, extra, named):
+    from guided_sfm.core.errors import InvalidInput
+
+    conn = _plain_colmap_tables(tmp_path / "db.db")
+    conn.execute(extra)
+    conn.commit()
+    conn.close()
+    with pytest.raises(InvalidInput, match=named):
+        colmap_db.check_untrusted(tmp_path / "db.db")
+    (tmp_path / "junk.db").write_bytes(b"not sqlite at all" * 100)
+    with pytest.raises(InvalidInput, match="not a usable SQLite database"):
+        colmap_db.check_untrusted(tmp_path / "junk.db")
+
+
+def test_a_plain_colmap_database_passes(tmp_path):
+    _plain_colmap_tables(tmp_path / "db.db").close()
+    colmap_db.check_untrusted(tmp_path / "db.db")

@@ -1,9 +1,12 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
 from guided_sfm.core.errors import InvalidFrustum, InvalidInput
 from guided_sfm.core.rule.driver import kept_to_connect, prune_pairs
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
+from tests.core.test_default_rule import _twins
 
 FRAME = GroundFrame(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
                     np.array([0, 0, 1.0]))
@@ -120,3 +123,24 @@ def test_the_default_rule_keeps_placement_only_cuts_that_would_split_the_match_g
     assert kept_to_connect(pairs, {}, manual=[(2, 3), (2, 4), (1, 4)]) == []
     # no split, nothing kept
     assert kept_to_connect(pairs, {(2, 3): ("placement",), (2, 4): ("placement",)}, []) == []
+
+
+def test_the_driver_with_evidence_tests_only_pairs_of_moved_cameras():
+    """The default rule with its evidence (hand-made twins, tests/core/test_default_rule.py): only
+    camera 7 of the folded cluster is carried back, so only pairs of 7 go (its false pairs, and its
+    pairs with the cluster still folded), by the evidence tests; the other false pairs stay until
+    their cameras are moved; a manual deletion joins the reasons."""
+    capture, _, false = _twins(np.random.default_rng(1))
+    edits = capture.placement({7}, shift=0.3, turn_deg=-10.0)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    mine = {p for p in capture.pairs() if 7 in p}
+    assert false & mine <= set(result.deleted) <= mine and len(false - mine) >= 4
+    assert all(set(result.reasons[p]) <= {"placement", "relative_pose", "rotation"} for p in result.deleted)
+    assert "frustum" not in result.removed_by_test  # every pair has evidence
+    manual = min(false - mine)
+    with_manual = prune_pairs(capture.scene(), dataclasses.replace(edits, delete_pairs=[manual]),
+                              capture.pairs(), capture.evidence())
+    assert set(with_manual.deleted) == set(result.deleted) | {manual}
+    assert with_manual.reasons[manual] == ("manual",)
+    paper = prune_pairs(capture.scene(), dataclasses.replace(edits, rule="paper"), capture.pairs())
+    assert set(paper.deleted).isdisjoint(false)  # the twins' frusta overlap: the paper's rule misses them

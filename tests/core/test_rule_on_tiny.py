@@ -5,8 +5,9 @@ import pycolmap
 
 from guided_sfm.core import evaluation, metrics, model_files, simulated_user
 from guided_sfm.core.rule import evidence
+from guided_sfm.core.topdown import scene_extent
 from guided_sfm.core.truth import false_pairs, load_truth
-from guided_sfm.core.types import EditSet
+from guided_sfm.core.types import CameraEdit, EditSet
 from guided_sfm.core.workspace import Workspace
 
 
@@ -54,3 +55,48 @@ def test_default_rule_cuts_the_tiny_scenes_false_pairs(tiny_workspace_ro, tiny_s
     assert precision >= 0.95 and recall >= 0.9
     assert set(outcome.removed_by_test) <= {"placement", "relative_pose", "rotation", "frustum"}
     assert outcome.components_after == outcome.components_before
+    # each of the two tests that see a carried cluster finds the false pairs on its own (a pair's
+    # reasons list every test that removed it): switching either off shows here
+    for test in ("placement", "relative_pose"):
+        by_test = {pair for pair, reasons in outcome.reasons.items() if test in reasons}
+        assert len(by_test & false) >= 0.9 * len(false), (test, outcome.removed_by_test)
+        assert len(by_test - false) <= 0.05 * len(by_test), (test, outcome.removed_by_test)
+
+
+def a_right_camera(workspace: Workspace, truth) -> int:
+    """The first registered camera (by name) the model places right, with four pairs or more, that
+    left in place loses none of them (a pair with a wrong partner may go: that is the rule's job)."""
+    wrong = set(evaluation.camera_status(workspace, truth).wrong)
+    pairs = workspace.verified_pairs()
+    for camera in sorted((c for c in workspace.scene().cameras if c.registered), key=lambda c: c.name):
+        mine = [p for p in pairs if camera.image_id in p]
+        if camera.image_id not in wrong and len(mine) >= 4 \
+                and one_camera(workspace, camera.image_id)[1].deleted == []:
+            return camera.image_id
+    raise AssertionError("the tiny scene has no right camera that keeps its pairs in place")
+
+
+def one_camera(workspace: Workspace, image_id: int, turn_deg: float = 0.0, shift: float = 0.0):
+    """The default rule's preview when one camera is turned in place or carried `shift` (frame
+    units, along x and y); (its verified pairs, the outcome)."""
+    camera = next(c for c in workspace.scene().cameras if c.image_id == image_id)
+    edit = CameraEdit(image_id, camera.x + shift, camera.y + shift, camera.yaw_deg + turn_deg)
+    outcome = workspace.preview(EditSet([edit], rule="default"))
+    return {p for p in workspace.verified_pairs() if image_id in p}, outcome
+
+
+def test_default_rule_on_tiny_each_evidence_test_has_its_case(tiny_workspace_ro, tiny_sample):
+    """Real matches, hand-made moves of a right camera (left in place, it loses no pair): turned
+    90 degrees in place, the relative-rotation test removes most of its pairs and the relative-pose
+    test none; carried 40% of the scene away, the relative-pose test removes them all."""
+    workspace = Workspace(tiny_workspace_ro)
+    image_id = a_right_camera(workspace, load_truth(tiny_sample / "truth.json"))
+    pairs, _ = one_camera(workspace, image_id)
+    _, turned = one_camera(workspace, image_id, turn_deg=90.0)
+    # every pair goes, or is kept only to keep the camera connected (match placement alone)
+    assert set(turned.deleted) | set(turned.kept_to_connect) == pairs
+    assert turned.removed_by_test["rotation"] >= len(pairs) / 2, turned.removed_by_test
+    assert "relative_pose" not in turned.removed_by_test  # a turn in place keeps the baseline
+    _, carried = one_camera(workspace, image_id, shift=0.3 * scene_extent(workspace.scene()))
+    assert set(carried.deleted) == pairs and carried.removed_by_test["relative_pose"] == len(pairs)
+    assert "frustum" not in carried.removed_by_test  # every pair has evidence: no fallback

@@ -113,17 +113,43 @@ def test_synthetic_scene_matches_the_contract(synthetic, tmp_path):
     assert len(data["points"]["xy"]) == 120
     frame = scene.frame
     np.testing.assert_allclose(np.cross(frame.x_axis, frame.y_axis), frame.up, atol=1e-9)
-    for camera in scene.cameras:
+    for camera in scene.cameras:  # positions and yaws: test_synthetic_scene_against_the_model_alone
         image = synthetic.images[camera.image_id]
-        center = image.projection_center()
-        assert [camera.x, camera.y] == pytest.approx(frame.to_2d(center)[0].tolist())
-        assert camera.yaw_deg == pytest.approx(
-            geometry.yaw_in_frame(image.viewing_direction(), frame))
         observed = np.array([synthetic.points3D[p.point3D_id].xyz
                            for p in image.get_observation_points2D()])
         depths = (observed @ image.cam_from_world().rotation.matrix().T
                   + image.cam_from_world().translation)[:, 2]
         assert camera.range == pytest.approx(np.median(depths))
+
+
+def test_synthetic_scene_against_the_model_alone(synthetic, tmp_path):
+    """Expected values from the model's poses and points by the test's own maths, not from the
+    scene's frame (only its up is taken, after checking it is a ground the contract allows): the
+    2D map is the camera centres seen from above, so distances and turns between cameras match."""
+    scene = _build([synthetic], [(i, im.name) for i, im in synthetic.images.items()], tmp_path)
+    rotations = {im.name: im.cam_from_world().rotation.matrix() for im in synthetic.images.values()}
+    centers = {im.name: im.projection_center() for im in synthetic.images.values()}
+    cameras_up = sum(-r[1] for r in rotations.values())  # a camera's up is minus its y (y points down)
+    up = scene.frame.up
+    assert np.linalg.norm(up) == pytest.approx(1.0)
+    assert up @ cameras_up / np.linalg.norm(cameras_up) >= np.cos(np.radians(30.0))
+    points = np.array([p.xyz for p in synthetic.points3D.values()])
+    heights = (points - scene.frame.origin) @ up
+    assert np.mean(np.abs(heights) < 0.035) >= 0.05  # a band of 1% of the cube's 3.5 diagonal
+    centroid = np.mean(list(centers.values()), axis=0)
+    assert np.linalg.norm(np.cross(scene.frame.origin - centroid, up)) < 1e-9  # below the centroid
+
+    def flat(v):
+        return v - (v @ up) * up
+
+    for a in scene.cameras:
+        for b in scene.cameras:
+            ground = np.linalg.norm(flat(centers[a.name] - centers[b.name]))
+            assert np.hypot(a.x - b.x, a.y - b.y) == pytest.approx(ground, abs=1e-9)
+            # the turn from b's heading to a's, counter-clockwise seen from above (about up)
+            ha, hb = flat(rotations[a.name][2]), flat(rotations[b.name][2])
+            turn = np.degrees(np.arctan2(np.cross(hb, ha) @ up, hb @ ha))
+            assert geometry.wrap_deg(a.yaw_deg - b.yaw_deg - turn) == pytest.approx(0.0, abs=1e-6)
 
 
 def test_synthetic_scene_is_deterministic(synthetic, tmp_path):

@@ -33,4 +33,6 @@ def run(context: JobContext, work: Path) -> Produced:
     deleted = [(a, b, tests) for (a, b), tests in reasons]
     message = (f"edit set {job.params.get('edit_set_id')}: deleted {len(deleted)} pairs"
                + (f"; {mapped.message()}" if mapped else ", not mapped again"))
+    if job.params.get("message"):  # the author's words first, then what was done
+        message = f"{job.params['message']} ({message})"
     return Produced(work, "apply", message, base.id, new.stats(), edits=body, deleted_pairs=deleted)

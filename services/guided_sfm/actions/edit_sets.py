@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from sqlalchemy import update
+from sqlalchemy import case, update
 from sqlalchemy.orm import Session
 
 from guided_sfm import jobs
@@ -37,7 +37,7 @@ def validate(session: Session, project: Project, body: dict[str, Any]) -> dict[s
 def create(session: Session, project: Project, body: dict[str, Any], user_id: int) -> EditSetRow:
     clean = validate(session, project, body)
     row = EditSetRow(project_id=project.id, base_version_id=clean["base_version_id"], body=clean,
-                     revision=1, updated_by_id=user_id)
+                     revision=1, updated_by_id=user_id, created_by_id=user_id)
     session.add(row)
     session.commit()
     return row
@@ -62,7 +62,10 @@ def replace(session: Session, project: Project, row: EditSetRow, body: dict[str,
     result = session.execute(
         update(EditSetRow).where(EditSetRow.id == row.id, EditSetRow.revision == expected)
         .values(body=clean, base_version_id=clean["base_version_id"], revision=expected + 1,
-                updated_by_id=user_id, updated_at=utcnow())
+                updated_by_id=user_id, updated_at=utcnow(),
+                # an approval holds for the revision it saw: a new one needs review again
+                review_state=case((EditSetRow.review_state == "approved", "draft"),
+                                  else_=EditSetRow.review_state))
     )
     if result.rowcount != 1:
         session.rollback()
@@ -78,7 +81,7 @@ def delete(session: Session, row: EditSetRow) -> None:
 
 
 def apply(session: Session, submit: Callable[[int], None], project: Project, row: EditSetRow,
-          user_id: int, remap: bool) -> Job:
+          user_id: int, remap: bool, message: str | None = None) -> Job:
     """Queue the edit set's application; 409 unless it is based on the head (rebase it first)."""
     if not row.body.get("cameras") and not row.body.get("delete_pairs"):
         # An empty draft would make a version identical to its base: no job, no version.
@@ -87,5 +90,6 @@ def apply(session: Session, submit: Callable[[int], None], project: Project, row
         raise Conflict(f"edit set {row.id} is based on version {row.base_version_id}, but the head is "
                        f"version {project.head_version_id}; rebase it onto the head first "
                        f"(POST .../edits/{row.id}/rebase)")
-    params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body, "remap": remap}
+    params = {"edit_set_id": row.id, "revision": row.revision, "body": row.body, "remap": remap,
+              "message": message or None}
     return jobs.queue(session, submit, project, "apply", user_id, params, row.base_version_id)

@@ -12,7 +12,10 @@ from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import Version
 from guided_sfm.storage import ArtifactStore
 
-FORMATS = {"colmap": (".zip", "application/zip"), "ply": (".ply", "application/octet-stream")}
+FORMATS = {"colmap": (".zip", "application/zip"), "ply": (".ply", "application/octet-stream"),
+           "colmap_text": (".zip", "application/zip"), "nerfstudio": (".zip", "application/zip")}
+WRITERS = {"colmap": exports.export_colmap_zip, "ply": exports.export_ply,
+           "colmap_text": exports.export_colmap_text, "nerfstudio": exports.export_nerfstudio}
 
 
 def export(store: ArtifactStore, version: Version, fmt: str) -> tuple[Path, str, str]:
@@ -24,8 +27,7 @@ def export(store: ArtifactStore, version: Version, fmt: str) -> tuple[Path, str,
     os.close(handle)
     out = Path(name)
     try:
-        writer = exports.export_colmap_zip if fmt == "colmap" else exports.export_ply
-        writer(Workspace(store.version_dir(version.path)), out)
+        WRITERS[fmt](Workspace(store.version_dir(version.path)), out)
     except BaseException:
         out.unlink(missing_ok=True)
         raise

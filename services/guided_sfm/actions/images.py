@@ -11,41 +11,29 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from guided_sfm.actions import uploads
+from guided_sfm.actions.context import NewImage
 from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Image, Project
 from guided_sfm.errors import Conflict
 from guided_sfm.storage import ArtifactStore
 
-THUMBNAIL_SIZE = (256, 256)
-
 
 def upload(session: Session, store: ArtifactStore, project: Project,
-           files: list[tuple[str, BinaryIO]], limit: int) -> list[Image]:
-    """Check every uploaded file in staging, then store them all (or none) in the project."""
-    with store.staging(project.id, prefix="upload-") as staging:
-        checked = uploads.stage_images(files, staging, limit)
-        taken = set(queries.image_ids_by_name(session, project.id))
-        clashes = sorted(image.name for image in checked if image.name in taken)
-        if clashes:
-            raise Conflict(f"the project already has images named {', '.join(clashes[:5])}")
-        rows = [Image(project_id=project.id, name=i.name, width=i.width, height=i.height,
-                      seq=0, taken_at=i.taken_at) for i in checked]
-        session.add_all(rows)
+           files: list[tuple[str, BinaryIO]], limit: int, max_mpx: int | None = None) -> list[Image]:
+    """Check every uploaded file (and make its thumbnail) in staging with no transaction open, then
+    store them all (or none) in one short write transaction."""
+    project_id = project.id
+    session.commit()  # staging a large upload takes long: hold no lock (SQLite's is the whole file)
+    with store.staging(project_id, prefix="upload-") as staging:
+        checked = uploads.stage_images(files, staging, limit, max_mpx)
+        rows = _insert(session, project_id, checked)
+        revealed = _reveal(store, project_id, staging, rows)
         try:
-            session.flush()
-        except IntegrityError as exc:  # a racing upload took a name between the check and here
-            session.rollback()
-            raise Conflict("another upload stored images with these names first") from exc
-        renumber(session, project.id)
-        moved = _move(staging, store.images_dir(project.id), [r.name for r in rows])
-        try:
-            for row in rows:
-                make_thumbnail(store.image_file(project.id, row.name), store.thumbnail(project.id, row.id))
             session.commit()
         except BaseException:
             session.rollback()
-            for path in moved:
+            for path in revealed:
                 path.unlink(missing_ok=True)
             raise
     return rows
@@ -69,6 +57,49 @@ def delete(session: Session, store: ArtifactStore, image: Image) -> None:
     thumb.unlink(missing_ok=True)
 
 
+def _insert(session: Session, project_id: int, checked: list[NewImage]) -> list[Image]:
+    """The rows, flushed: from here the names are this upload's (the unique index holds them)."""
+    importing = queries.active_job(session, project_id)
+    if importing is not None and importing.kind == "import":
+        raise Conflict(f"an import (job {importing.id}) is {importing.state} in this project; "
+                       "upload once it has ended")
+    taken = set(queries.image_ids_by_name(session, project_id))
+    clashes = sorted(image.name for image in checked if image.name in taken)
+    if clashes:
+        raise Conflict(f"the project already has images named {', '.join(clashes[:5])}")
+    rows = [Image(project_id=project_id, name=i.name, width=i.width, height=i.height,
+                  seq=0, taken_at=i.taken_at) for i in checked]
+    session.add_all(rows)
+    try:
+        session.flush()
+    except IntegrityError as exc:  # a racing upload took a name between the check and here
+        session.rollback()
+        raise Conflict("another upload stored images with these names first") from exc
+    renumber(session, project_id)
+    return rows
+
+
+def _reveal(store: ArtifactStore, project_id: int, staging: Path, rows: list[Image]) -> list[Path]:
+    """Put the staged files in place. The rows are flushed, so a file already there under one of
+    these names has no row: an orphan of a crashed upload, replaced (the reconciler removes the
+    others)."""
+    revealed = []
+    try:
+        for row in rows:
+            target, thumb = store.image_file(project_id, row.name), store.thumbnail(project_id, row.id)
+            for folder in (target.parent, thumb.parent):
+                folder.mkdir(parents=True, exist_ok=True)
+            os.replace(staging / uploads.THUMBS / row.name, thumb)
+            revealed.append(thumb)
+            os.replace(staging / row.name, target)
+            revealed.append(target)
+    except BaseException:
+        for path in revealed:
+            path.unlink(missing_ok=True)
+        raise
+    return revealed
+
+
 def renumber(session: Session, project_id: int) -> None:
     """seq = capture order: EXIF time when every image has one, else file-name order."""
     rows = queries.images(session, project_id)
@@ -78,27 +109,11 @@ def renumber(session: Session, project_id: int) -> None:
     session.flush()
 
 
-def _move(staging: Path, target: Path, names: list[str]) -> list[Path]:
-    target.mkdir(parents=True, exist_ok=True)
-    moved = []
-    try:
-        for name in names:
-            # link, not replace: a file a racing upload just stored under this name is never clobbered
-            os.link(staging / name, target / name)
-            moved.append(target / name)
-    except FileExistsError as exc:
-        for path in moved:
-            path.unlink(missing_ok=True)
-        raise Conflict(f"the project already has an image named {Path(exc.filename2 or '').name}") from exc
-    return moved
-
-
 def make_thumbnail(source: Path, target: Path) -> None:
-    """A small JPEG preview (JPEG rather than PNG: see the Pillow/pycolmap pitfall in cli.py)."""
-    target.parent.mkdir(parents=True, exist_ok=True)
+    """A small JPEG preview of a stored image."""
     with PIL.Image.open(source) as img:
-        img.thumbnail(THUMBNAIL_SIZE)
-        img.convert("RGB").save(target, "JPEG", quality=85)
+        img.draft("RGB", uploads.THUMBNAIL_SIZE)
+        uploads.save_thumbnail(img, target)
 
 
 def thumbnail(store: ArtifactStore, image: Image) -> Path:

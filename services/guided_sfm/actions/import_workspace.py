@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from guided_sfm import jobs
 from guided_sfm.actions import uploads
 from guided_sfm.actions.context import JobContext, NewImage, Produced
+from guided_sfm.core import colmap_db
 from guided_sfm.core.errors import InvalidInput
 from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
@@ -77,9 +78,10 @@ def _common_root(paths: list[PurePosixPath]) -> tuple[str, ...]:
 def run(context: JobContext, work: Path) -> Produced:
     upload = context.store.root / context.job.params["upload"]
     try:
-        images = _extract(upload, work, context.settings.max_upload_bytes)
+        images = _extract(upload, work, context.settings.max_upload_bytes, context.settings.max_image_mpx)
     finally:
         upload.unlink(missing_ok=True)
+    colmap_db.check_untrusted(work / "database.db")  # before pycolmap or we read a row of it
     workspace = Workspace(work)
     workspace.write_meta({"image_dir": str(context.images_dir()), "imported": True})
     names = set(workspace.image_ids())
@@ -93,7 +95,7 @@ def run(context: JobContext, work: Path) -> Produced:
     return Produced(work, "import", message, None, stats, new_images=images, images_from=work / "images")
 
 
-def _extract(upload: Path, work: Path, limit: int) -> list[NewImage]:
+def _extract(upload: Path, work: Path, limit: int, limit_mpx: int) -> list[NewImage]:
     budget = uploads.Budget(limit)
     images = []
     with uploads.open_zip(upload, "the workspace zip") as archive:
@@ -103,5 +105,5 @@ def _extract(upload: Path, work: Path, limit: int) -> list[NewImage]:
             uploads.extract(archive, info, work / path, budget)
             if path.parts[0] == "images":
                 name = uploads.image_name(path.name, "zip entry")
-                images.append(uploads.check_image(work / path, name))
+                images.append(uploads.check_image(work / path, name, limit_mpx))
     return images

@@ -6,11 +6,11 @@ from typing import TypeVar
 
 from sqlalchemy.orm import Session
 
-from guided_sfm.db.models import EditSetRow, Image, Version
+from guided_sfm.db.models import Comment, EditSetRow, Image, Version
 from guided_sfm.errors import NotFound
 
-NOUNS = {Image: "image", Version: "version", EditSetRow: "edit set"}  # in 404 messages
-InProject = TypeVar("InProject", Image, Version, EditSetRow)
+NOUNS = {Image: "image", Version: "version", EditSetRow: "edit set", Comment: "comment"}  # in 404 messages
+InProject = TypeVar("InProject", Image, Version, EditSetRow, Comment)
 
 
 def in_project(session: Session, model: type[InProject], project_id: int, row_id: int) -> InProject:

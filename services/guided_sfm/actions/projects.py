@@ -20,8 +20,10 @@ def add(session: Session, user_id: int, name: str, description: str = "") -> Pro
     return project
 
 
-def create(session: Session, user_id: int, name: str, description: str = "") -> Project:
+def create(session: Session, store: ArtifactStore, user_id: int, name: str, description: str = "") -> Project:
     project = add(session, user_id, name, description)
+    # SQLite reuses the id of a deleted last row: files a crashed deletion left are not this project's
+    store.delete_project(project.id)
     session.commit()
     return project
 

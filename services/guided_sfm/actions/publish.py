@@ -8,6 +8,7 @@ from pathlib import Path
 from sqlalchemy.orm import Session
 
 from guided_sfm import jobs
+from guided_sfm.actions import webhooks
 from guided_sfm.actions.context import NewImage, Produced
 from guided_sfm.db.models import Image, Job, PairDeletion, Project, Version
 from guided_sfm.errors import Conflict
@@ -33,6 +34,8 @@ def publish(session: Session, store: ArtifactStore, job: Job, produced: Produced
         if not jobs.finish(session, job.id, "succeeded", message=message, version_id=version.id,
                            timings=produced.timings):
             raise Conflict(f"job {job.id} was ended by someone else before it could publish")
+        webhooks.version_created(session, version, project.head_version_id == version.id)
+        webhooks.job_finished(session, job, "succeeded", version.id)
         session.commit()
         return version
     except BaseException:

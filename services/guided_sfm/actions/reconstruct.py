@@ -26,12 +26,14 @@ def queue(session: Session, submit: Callable[[int], None], project: Project, use
 
 
 def run(context: JobContext, work: Path) -> Produced:
+    # The images the database lists, not the folder's files (a crashed upload may have left some).
     with session_scope(context.sessions) as session:
-        count = len(queries.images(session, context.job.project_id))
+        names = sorted(row.name for row in queries.images(session, context.job.project_id))
+    count = len(names)
     if count < 2:
         raise InvalidInput(f"a reconstruction needs at least 2 images; the project has {count}")
     run, workspace = context.run(), Workspace(work)
-    workspace.reconstruct(context.images_dir(), run)
+    workspace.reconstruct(context.images_dir(), run, names)
     stats, options = workspace.stats(), run.options
     message = (f"reconstructed {stats['num_registered']} of {stats['num_images']} images "
                f"({options.matcher} matching, {options.mapper} mapping)")

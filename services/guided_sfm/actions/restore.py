@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
+from guided_sfm.actions import webhooks
 from guided_sfm.db import queries
 from guided_sfm.db.models import Project, Version
 from guided_sfm.errors import Conflict
@@ -24,6 +25,7 @@ def restore(session: Session, store: ArtifactStore, project: Project, version: V
         session.add(restored)
         session.flush()
         project.head_version_id = restored.id
+        webhooks.version_created(session, restored, is_head=True)
         session.commit()
     except BaseException:
         session.rollback()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 import zipfile
 from pathlib import Path, PurePosixPath
@@ -11,10 +12,13 @@ import PIL.Image
 
 from guided_sfm.actions.context import NewImage
 from guided_sfm.errors import BadUpload, TooLarge
+from guided_sfm.settings import PREFIX
 
 FORMATS = {"JPEG": (".jpg", ".jpeg"), "PNG": (".png",)}
 EXIF_DATETIME_ORIGINAL, EXIF_IFD = 0x9003, 0x8769
 CHUNK = 1 << 20
+THUMBNAIL_SIZE = (256, 256)
+THUMBS = ".thumbs"  # a staging folder no image name can take (names never start with a dot)
 
 
 class Budget:
@@ -73,16 +77,24 @@ def open_zip(path: Path, shown: str) -> zipfile.ZipFile:
         raise BadUpload(f"{shown}: not a readable zip file") from exc
 
 
-def check_image(path: Path, name: str) -> NewImage:
-    """Size and EXIF time of a JPEG/PNG file; BadUpload when it is anything else or corrupt."""
+def check_image(path: Path, name: str, max_mpx: int | None = None, thumbnail: Path | None = None) -> NewImage:
+    """Size and EXIF time of a JPEG/PNG file; BadUpload when it is anything else, corrupt or over
+    `max_mpx` megapixels (read from the header, before any decode). With `thumbnail`, the preview
+    is written from the same read, JPEGs decoded at the smallest scale it needs."""
     try:
         with PIL.Image.open(path) as img:
-            kind = img.format
+            kind, (width, height) = img.format, img.size
+            _check_pixels(name, width, height, max_mpx)
             img.verify()
         with PIL.Image.open(path) as img:
+            img.draft("RGB", THUMBNAIL_SIZE)  # JPEG: decode at 1/2..1/8 scale; the check still reads it all
             img.load()  # verify() misses truncated pixel data
-            width, height = img.size
             taken = img.getexif().get_ifd(EXIF_IFD).get(EXIF_DATETIME_ORIGINAL)
+            if thumbnail is not None:
+                save_thumbnail(img, thumbnail)
+    except PIL.Image.DecompressionBombError as exc:  # beyond Pillow's own cap: its header says so
+        raise BadUpload(f"{name}: {_pixels_named(exc)} pixels, over the limit of {max_mpx or '?'} Mpx "
+                        f"({PREFIX}MAX_IMAGE_MPX); refused before decoding") from exc
     except (PIL.Image.UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
         # Pillow's message may hold the staging path; the client sees only the name it sent.
         reason = str(exc).replace(str(path), name).replace(str(path.parent), "")
@@ -90,6 +102,25 @@ def check_image(path: Path, name: str) -> NewImage:
     if kind not in FORMATS:
         raise BadUpload(f"{name}: {kind} images are not accepted; upload JPEG or PNG")
     return NewImage(name, width, height, str(taken)[:32] if taken else None)
+
+
+def _check_pixels(name: str, width: int, height: int, max_mpx: int | None) -> None:
+    if max_mpx is not None and width * height > max_mpx * 1_000_000:
+        raise BadUpload(f"{name}: {width} x {height} = {width * height / 1e6:.1f} Mpx, over the limit "
+                        f"of {max_mpx} Mpx ({PREFIX}MAX_IMAGE_MPX); refused before decoding")
+
+
+def _pixels_named(exc: Exception) -> str:
+    """The pixel count in Pillow's message ('Image size (N pixels) exceeds ...') in Mpx."""
+    found = re.search(r"\((\d+) pixels\)", str(exc))
+    return f"{int(found.group(1)) / 1e6:.1f} Mpx" if found else "too many"
+
+
+def save_thumbnail(img: PIL.Image.Image, target: Path) -> None:
+    """A small JPEG preview (JPEG rather than PNG: see the Pillow/pycolmap pitfall in cli.py)."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    img.thumbnail(THUMBNAIL_SIZE)
+    img.convert("RGB").save(target, "JPEG", quality=85)
 
 
 def image_name(raw: str, what: str) -> str:
@@ -102,8 +133,10 @@ def image_name(raw: str, what: str) -> str:
     return name
 
 
-def stage_images(uploads: list[tuple[str, BinaryIO]], staging: Path, limit: int) -> list[NewImage]:
-    """Copy (or unzip) the uploaded files into staging and check every image; nothing else is touched."""
+def stage_images(uploads: list[tuple[str, BinaryIO]], staging: Path, limit: int,
+                 max_mpx: int | None = None) -> list[NewImage]:
+    """Copy (or unzip) the uploaded files into staging, check every image and write its thumbnail
+    to staging/.thumbs/; nothing else is touched."""
     if not uploads:
         raise BadUpload("no files in the upload (multipart field 'files')")
     budget = Budget(limit)
@@ -113,7 +146,7 @@ def stage_images(uploads: list[tuple[str, BinaryIO]], staging: Path, limit: int)
         raw = staging.parent / (staging.name + ".zip")
         copy_limited(uploads[0][1], raw, Budget(limit), uploads[0][0])
         try:
-            return _unzip_images(raw, uploads[0][0], staging, budget)
+            return _unzip_images(raw, uploads[0][0], staging, budget, max_mpx)
         finally:
             raw.unlink(missing_ok=True)
     images = []
@@ -122,11 +155,12 @@ def stage_images(uploads: list[tuple[str, BinaryIO]], staging: Path, limit: int)
         _claim(staging, name)
         if copy_limited(source, staging / name, budget, name) == 0:
             raise BadUpload(f"{name}: the file is empty")
-        images.append(check_image(staging / name, name))
+        images.append(check_image(staging / name, name, max_mpx, staging / THUMBS / name))
     return images
 
 
-def _unzip_images(raw: Path, shown: str, staging: Path, budget: Budget) -> list[NewImage]:
+def _unzip_images(raw: Path, shown: str, staging: Path, budget: Budget,
+                  max_mpx: int | None) -> list[NewImage]:
     with open_zip(raw, PurePosixPath(shown.replace("\\", "/")).name) as archive:
         entries = zip_entries(archive, budget)
         if not entries:
@@ -136,7 +170,7 @@ def _unzip_images(raw: Path, shown: str, staging: Path, budget: Budget) -> list[
             name = image_name(path.name, "zip entry")
             _claim(staging, name)
             extract(archive, info, staging / name, budget)
-            images.append(check_image(staging / name, name))
+            images.append(check_image(staging / name, name, max_mpx, staging / THUMBS / name))
     return images
 
 

@@ -7,38 +7,32 @@ from pathlib import Path
 
 import PIL.Image  # noqa: F401  (before pycolmap: Pillow loaded after it crashes on PNG save)
 from fastapi import FastAPI
-from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 from sqlalchemy.orm import Session, sessionmaker
-from starlette.types import ASGIApp, Receive, Scope, Send
 
 from guided_sfm.api import errors
-from guided_sfm.api.routes import auth, edits, images, jobs, members, projects, users, versions
+from guided_sfm.api.limits import BodyLimit
+from guided_sfm.api.routes import (
+    activity,
+    auth,
+    comments,
+    edits,
+    images,
+    jobs,
+    members,
+    presence,
+    projects,
+    tokens,
+    users,
+    versions,
+    webhooks,
+)
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
 FRONTEND = Path(__file__).resolve().parents[3] / "frontend"
 API_PREFIX = "/api/v1"
-UPLOAD_OVERHEAD = 1 << 20  # multipart headers around the files
-
-
-class UploadLimit:
-    """Refuse a request whose declared body exceeds the upload limit before it is read."""
-
-    def __init__(self, app: ASGIApp, limit: int) -> None:
-        self.app, self.limit = app, limit
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] == "http":
-            length = dict(scope["headers"]).get(b"content-length", b"0")
-            if length.isdigit() and int(length) > self.limit + UPLOAD_OVERHEAD:
-                detail = f"the upload exceeds the limit of {self.limit // (1 << 20)} MB"
-                await JSONResponse({"detail": detail}, status_code=413)(scope, receive, send)
-                return
-        await self.app(scope, receive, send)
-
-
 def create_app(settings: Settings, submit: Callable[[int], None],
                sessions: sessionmaker[Session] | None = None) -> FastAPI:
     """The API; `submit(job_id)` enqueues a committed job (worker.celery_app.submitter in production)."""
@@ -50,9 +44,11 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.store = ArtifactStore(settings.artifacts_dir)
     app.state.submit = submit
     errors.install(app)
-    for module in (users, auth, projects, members, images, jobs, versions, edits):
+    for module in (users, auth, tokens, projects, members, images, jobs, versions, edits, webhooks):
         app.include_router(module.router, prefix=API_PREFIX)
-    app.add_middleware(UploadLimit, limit=settings.max_upload_bytes)
+    for module in (activity, comments, presence):  # team review (v1.1)
+        app.include_router(module.router, prefix=API_PREFIX)
+    app.add_middleware(BodyLimit, upload_limit=settings.max_upload_bytes)
 
     @app.get(API_PREFIX + "/health", tags=["health"])
     def health() -> dict[str, str]:

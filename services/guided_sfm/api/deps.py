@@ -9,11 +9,13 @@ from fastapi import Depends, Path, Request
 from fastapi.security import OAuth2PasswordBearer
 from sqlalchemy.orm import Session
 
-from guided_sfm.actions import lookup
+from guided_sfm.actions import lookup, tokens
+from guided_sfm.actions.activity import Actor
 from guided_sfm.actions.lookup import InProject
 from guided_sfm.api import security
 from guided_sfm.db import queries
-from guided_sfm.db.models import MAX_ID, EditSetRow, Image, Job, Project, User, Version
+from guided_sfm.db.models import MAX_ID, AccessToken, EditSetRow, Image, Job, Project, User, Version
+from guided_sfm.db.session import read_only
 from guided_sfm.errors import Forbidden, NotFound, Unauthorized
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
@@ -22,8 +24,14 @@ PathId = Annotated[int, Path(ge=1, le=MAX_ID)]
 bearer = OAuth2PasswordBearer(tokenUrl="/api/v1/auth/token", auto_error=False)
 
 
+READ_METHODS = ("GET", "HEAD", "OPTIONS")
+
+
 def get_session(request: Request) -> Iterator[Session]:
+    """A session per request; reads do not take SQLite's write lock (see db.session)."""
     with request.app.state.sessions() as session:
+        if request.method in READ_METHODS:
+            read_only(session)
         yield session
 
 
@@ -45,24 +53,52 @@ StoreDep = Annotated[ArtifactStore, Depends(get_store)]
 SubmitDep = Annotated[Callable[[int], None], Depends(get_submit)]
 
 
-def current_user(session: SessionDep, settings: SettingsDep,
+def current_user(request: Request, session: SessionDep, settings: SettingsDep,
                  token: Annotated[str | None, Depends(bearer)]) -> User:
+    """The caller, from a session token or a personal access token; the latter is kept on
+    `request.state.token` so that its scope and projects limit what follows."""
     if not token:
         raise Unauthorized("not authenticated: send Authorization: Bearer <token> from /api/v1/auth/token")
-    user = session.get(User, security.user_id_from(token, settings.secret_key or ""))
+    request.state.token = None
+    if tokens.is_personal(token):
+        request.state.token = access = tokens.resolve(session, token)
+        tokens.allows(access, request.method)
+        return access.user
+    user_id, epoch = security.session_claims(token, settings.secret_key or "")
+    user = session.get(User, user_id)
     if user is None:
         raise Unauthorized("the token's user no longer exists")
+    if epoch != user.token_epoch:
+        raise Unauthorized("the password changed since this token was issued; sign in again")
     return user
 
 
 CurrentUser = Annotated[User, Depends(current_user)]
 
 
+def personal_token(request: Request) -> AccessToken | None:
+    return getattr(request.state, "token", None)
+
+
+def session_only(request: Request, user: CurrentUser) -> User:
+    """The caller, when signed in with a password session: a token cannot mint tokens or change
+    the password (a leaked token must not outlive its revocation)."""
+    if personal_token(request) is not None:
+        raise Forbidden("this needs a password session, not an access token")
+    return user
+
+
+SessionUser = Annotated[User, Depends(session_only)]
+
+
 def require_role(session: Session, user: User, project_id: int | None, needed: str,
-                 missing: str | None = None) -> Project:
-    """The project if the user's role is at least `needed`; no role at all looks like no such thing
-    (`missing` names what was asked for: the project itself unless a job of it)."""
+                 missing: str | None = None, token: AccessToken | None = None) -> Project:
+    """The project if the user's role is at least `needed`; no role at all, or a project the access
+    `token` is not for, looks like no such thing (`missing` names what was asked for: the project
+    itself unless a job of it)."""
     role = queries.role_of(session, project_id, user.id) if project_id is not None else None
+    if token is not None and token.projects is not None and project_id not in token.projects:
+        role = None
     if role is None:
         raise NotFound(f"{missing or f'project {project_id}'} not found")
     if not queries.role_at_least(role, needed):
@@ -72,8 +108,8 @@ def require_role(session: Session, user: User, project_id: int | None, needed: s
 
 @cache  # one dependency per role: FastAPI then resolves it once per request, however many ask
 def project_with(needed: str) -> Callable[..., Project]:
-    def dependency(pid: PathId, session: SessionDep, user: CurrentUser) -> Project:
-        return require_role(session, user, pid, needed)
+    def dependency(request: Request, pid: PathId, session: SessionDep, user: CurrentUser) -> Project:
+        return require_role(session, user, pid, needed, token=personal_token(request))
 
     return dependency
 
@@ -107,9 +143,10 @@ def job_with(needed: str) -> Callable[..., Job]:
     """The path's job if the user's role in its project is at least `needed`; jobs live outside
     projects in the path, so a stranger's 404 names the job only."""
 
-    def dependency(job_id: PathId, session: SessionDep, user: CurrentUser) -> Job:
+    def dependency(request: Request, job_id: PathId, session: SessionDep, user: CurrentUser) -> Job:
         job = session.get(Job, job_id)
-        require_role(session, user, job.project_id if job else None, needed, f"job {job_id}")
+        require_role(session, user, job.project_id if job else None, needed, f"job {job_id}",
+                     personal_token(request))
         return job
 
     return dependency
@@ -117,3 +154,12 @@ def job_with(needed: str) -> Callable[..., Job]:
 
 ViewerJob = Annotated[Job, Depends(job_with("viewer"))]
 EditorJob = Annotated[Job, Depends(job_with("editor"))]
+
+
+def actor(request: Request, user: CurrentUser) -> Actor:
+    """The caller as the activity log names them (with the access token's name, if one was used)."""
+    token = personal_token(request)
+    return Actor.of(user, token.name if token is not None else None)
+
+
+ActorDep = Annotated[Actor, Depends(actor)]

@@ -47,6 +47,60 @@ class TokenOut(Out):
     token_type: str = "bearer"
 
 
+class PasswordChange(In):
+    old_password: Text = Field(max_length=256)
+    new_password: Text = Field(min_length=8, max_length=256)
+
+
+class AccessTokenCreate(In):
+    name: Text = Field(min_length=1, max_length=100)
+    scope: Literal["read", "write"]
+    projects: list[DbId] | None = Field(default=None, max_length=1000)  # None: every project
+    expires_days: int | None = Field(default=None, ge=1, le=3650)  # None: until revoked
+
+
+class AccessTokenOut(Out):
+    id: int
+    name: str
+    scope: str
+    projects: list[int] | None
+    created_at: datetime
+    expires_at: datetime | None
+
+
+class AccessTokenCreated(AccessTokenOut):
+    token: str  # the secret, shown this once
+
+
+class WebhookIn(In):
+    url: Text = Field(min_length=1, max_length=2000)
+    events: list[Literal["job_finished", "version_created", "edit_submitted", "edit_reviewed"]] = Field(
+        min_length=1)
+    secret: Text | None = Field(default=None, min_length=16, max_length=200)  # None: one is generated
+
+
+class WebhookOut(Out):
+    id: int
+    url: str
+    events: list[str]
+    created_at: datetime
+
+
+class WebhookCreated(WebhookOut):
+    secret: str  # shown this once; each delivery's X-Guided-SFM-Signature is an HMAC with it
+
+
+class DeliveryOut(Out):
+    id: int
+    event: str
+    at: datetime
+    status_code: int | None
+    attempts: int
+    ok: bool = False
+    state: str  # pending (retries left), ok, failed (given up)
+    answer: str | None
+
+
 class ProjectCreate(In):
     name: Text = Field(min_length=1, max_length=200)
     description: Text = Field(default="", max_length=10_000)
@@ -60,6 +114,14 @@ class ProjectOut(Out):
     created_at: datetime
     role: Role | None = None
     owner: str | None = None  # the first owner's username, for the project list
+    require_approval: bool = False
+    published_version_id: int | None = None  # the team's accepted result
+
+
+class ProjectPatch(In):
+    name: Text | None = Field(default=None, min_length=1, max_length=200)
+    description: Text | None = Field(default=None, max_length=10_000)
+    require_approval: bool | None = None
 
 
 class MemberIn(In):
@@ -101,6 +163,7 @@ class JobOut(Out):
     started_at: datetime | None
     finished_at: datetime | None
     timings: dict[str, Any] | None = None  # seconds and peak memory (MiB) per stage, once ended
+    queue_position: int | None = None  # while queued: 1 = next to run (applies go first)
 
 
 class StatsOut(Out):
@@ -152,6 +215,16 @@ class EditSetIn(In):
     tolerances: dict[Text, float] = Field(default_factory=dict)
 
 
+class ReviewOut(Out):
+    id: int
+    reviewer: str | None
+    verdict: str
+    comment: str
+    revision: int
+    created_at: datetime
+    review_state: str | None = None  # the edit set's state after this review (in the POST answer)
+
+
 class EditSetOut(Out):
     id: int
     revision: int
@@ -164,6 +237,9 @@ class EditSetOut(Out):
     updated_by: str | None
     updated_at: datetime
     applied_version_id: int | None = None  # the version an apply of this revision made, if any
+    author: str | None = None
+    review_state: str = "draft"
+    reviews: list[ReviewOut] = Field(default_factory=list)
 
 
 class RebaseOut(EditSetOut):
@@ -189,6 +265,7 @@ class PreviewOut(Out):
 
 class ApplyIn(In):
     remap: bool = True
+    message: Text | None = Field(default=None, max_length=2000)  # the version's note, in the author's words
 
 
 class CompareCameraOut(Out):
@@ -199,3 +276,81 @@ class CompareCameraOut(Out):
 
 class CompareOut(Out):
     cameras: list[CompareCameraOut]
+
+
+# Team review (design.md, contract additions v1.1)
+class ActivityOut(Out):
+    id: int
+    at: datetime
+    user: str | None
+    action: str
+    target: dict[str, Any]
+    detail: dict[str, Any]
+    token: str | None = None  # the personal access token's name, when the change came through one
+
+
+class ActivityPage(Out):
+    items: list[ActivityOut]
+    next_before: int | None
+
+
+class ReviewIn(In):
+    verdict: Literal["approve", "request_changes"]
+    comment: Text = Field(default="", max_length=10_000)
+
+
+CommentKind = Literal["image", "pair", "version", "edit_set", "project"]
+
+
+class CommentTarget(In):
+    kind: CommentKind
+    id: DbId | None = None  # image, version or edit set id
+    image_ids: list[DbId] | None = Field(default=None, min_length=2, max_length=2)  # a pair
+
+
+class CommentIn(In):
+    target: CommentTarget
+    body: Text = Field(min_length=1, max_length=10_000)  # plain text, shown as text
+    parent_id: DbId | None = None
+
+
+class CommentPatch(In):
+    body: Text | None = Field(default=None, min_length=1, max_length=10_000)
+    resolved: bool | None = None
+
+
+class CommentOut(Out):
+    id: int
+    author: str | None
+    created_at: datetime
+    updated_at: datetime
+    body: str
+    target: dict[str, Any]
+    parent_id: int | None
+    resolved: bool
+
+
+class PresenceIn(In):
+    edit_set_id: DbId | None = None
+    version_id: DbId | None = None
+
+
+class PresenceOut(Out):
+    username: str
+    edit_set_id: int | None
+    version_id: int | None
+    seen_at: datetime
+
+
+class NotificationOut(Out):
+    id: int
+    at: datetime
+    kind: str
+    project_id: int
+    target: dict[str, Any]
+    text: str
+    read: bool
+
+
+class NotificationsRead(In):
+    ids: list[DbId] = Field(max_length=1000)

@@ -26,14 +26,16 @@ def verify_password(password: str, password_hash: str | None) -> bool:
     return _hasher.verify(password, password_hash)
 
 
-def issue_token(user_id: int, secret: str, minutes: int) -> str:
+def issue_token(user_id: int, secret: str, minutes: int, epoch: int = 0) -> str:
+    """A session token; `epoch` is the user's token epoch, which a password change moves on."""
     expires = datetime.now(UTC) + timedelta(minutes=minutes)
-    return jwt.encode({"sub": str(user_id), "exp": expires}, secret, algorithm=ALGORITHM)
+    return jwt.encode({"sub": str(user_id), "ep": epoch, "exp": expires}, secret, algorithm=ALGORITHM)
 
 
-def user_id_from(token: str, secret: str) -> int:
+def session_claims(token: str, secret: str) -> tuple[int, int]:
+    """(user id, epoch) of a valid session token; tokens from before epochs existed count as 0."""
     try:
         claims = jwt.decode(token, secret, algorithms=[ALGORITHM], options={"require": ["sub", "exp"]})
-        return int(claims["sub"])
-    except (jwt.PyJWTError, ValueError) as exc:
+        return int(claims["sub"]), int(claims.get("ep", 0))
+    except (jwt.PyJWTError, ValueError, TypeError) as exc:
         raise Unauthorized("the token is invalid or expired; sign in again") from exc

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sqlite3
+import time
 from collections.abc import Iterable
 from contextlib import closing, contextmanager
 from pathlib import Path
@@ -10,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from guided_sfm.core.errors import MissingWorkspace
+from guided_sfm.core.errors import InvalidInput, MissingWorkspace
 from guided_sfm.core.geometry import horizontal_fov_deg
 from guided_sfm.core.types import PairKey, pair_key
 
@@ -18,6 +19,8 @@ from guided_sfm.core.types import PairKey, pair_key
 # version's database leaves them out: it costs kilobytes per image instead of megabytes.
 SKIPPED_TABLES = ("descriptors",)
 SQL_CHUNK = 500  # pair ids per IN (...) query, below SQLite's bound-parameter limit
+COLMAP_TABLES = ("cameras", "images", "keypoints", "matches", "two_view_geometries")
+CHECK_SECONDS = 60.0  # an outside database's checks stop after this (a huge file is refused)
 
 
 @contextmanager
@@ -30,6 +33,35 @@ def read_only(path: Path):
         yield conn
     finally:
         conn.close()
+
+
+def check_untrusted(path: Path, seconds: float = CHECK_SECONDS) -> None:
+    """Refuse a COLMAP database from outside before anything else reads it: only plain tables (a
+    view or trigger runs whatever query it holds, an endless recursive one included), COLMAP's
+    tables present, integrity intact. Opened read-only with an untrusted schema, bounded in time."""
+    conn = sqlite3.connect(f"file:{Path(path).resolve()}?mode=ro", uri=True)
+    deadline = time.monotonic() + seconds
+    conn.set_progress_handler(lambda: int(time.monotonic() > deadline), 10_000)
+    try:
+        with closing(conn):
+            conn.execute("PRAGMA trusted_schema=OFF")
+            schema = conn.execute("SELECT type, name, sql FROM sqlite_master").fetchall()
+            _check_schema(schema)
+            problems = [row[0] for row in conn.execute("PRAGMA integrity_check(5)")]
+    except sqlite3.DatabaseError as exc:  # includes "interrupted" once past the deadline
+        raise InvalidInput(f"database.db is not a usable SQLite database ({exc})") from exc
+    if problems != ["ok"]:
+        raise InvalidInput(f"database.db fails SQLite's integrity check: {'; '.join(problems)}")
+
+
+def _check_schema(schema: list[tuple[str, str, str | None]]) -> None:
+    odd = [f"{kind} {name}" for kind, name, sql in schema
+           if kind not in ("table", "index") or (sql or "").upper().startswith("CREATE VIRTUAL")]
+    if odd:
+        raise InvalidInput(f"database.db may hold only tables and indexes; it has {', '.join(odd[:5])}")
+    missing = sorted(set(COLMAP_TABLES) - {name for kind, name, _ in schema if kind == "table"})
+    if missing:
+        raise InvalidInput(f"database.db is not a COLMAP database: no table {', '.join(missing)}")
 
 
 def _blob(data: bytes, rows: int, cols: int, dtype) -> np.ndarray:

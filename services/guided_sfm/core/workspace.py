@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -146,15 +147,17 @@ class Workspace:
 
     # -- steps ------------------------------------------------------------------------------------
 
-    def reconstruct(self, image_dir: Path, run: RunContext = RunContext()) -> None:
-        """Images -> database, sparse models and scene: the first version of a project."""
+    def reconstruct(self, image_dir: Path, run: RunContext = RunContext(),
+                    image_names: Sequence[str] | None = None) -> None:
+        """Images (all of the folder's, or those named) -> database, sparse models and scene: the
+        first version of a project."""
         self.root.mkdir(parents=True, exist_ok=True)
         self.database.unlink(missing_ok=True)
         shutil.rmtree(self.sparse, ignore_errors=True)  # a fresh start aligns to nothing
         image_dir = Path(image_dir).resolve()
         self.write_meta({"image_dir": str(image_dir), "options": run.options.to_dict()})
         run = run.reporting_to(spanned(run.progress))
-        sfm.extract_features(image_dir, self.database, run)
+        sfm.extract_features(image_dir, self.database, run, image_names)
         sfm.match_features(self.database, run)
         colmap_db.finalize(self.database)
         self.map_again(run, image_dir, cold=True)

@@ -24,11 +24,17 @@ from sqlalchemy.orm import Mapped, mapped_column, relationship
 from guided_sfm.db.base import Base
 
 ROLES = ("viewer", "editor", "owner")
+TOKEN_SCOPES = ("read", "write")
+WEBHOOK_EVENTS = ("job_finished", "version_created", "edit_submitted", "edit_reviewed")
 JOB_KINDS = ("reconstruct", "apply", "import")
 JOB_STATES = ("queued", "running", "succeeded", "failed", "cancelled")
 ACTIVE_STATES = ("queued", "running")
 ACTIVE_SQL = "state IN ('queued', 'running')"
 VERSION_KINDS = ("reconstruct", "apply", "import", "restore")
+REVIEW_STATES = ("draft", "in_review", "approved", "changes_requested")
+ACTIVITY_ACTIONS = ("upload", "reconstruct", "import", "edit_save", "edit_delete", "submit", "review",
+                    "apply", "restore", "publish", "member", "comment", "settings", "job_end")
+NOTIFICATION_KINDS = ("mention", "review_requested", "reviewed", "job_finished")
 MAX_ID = 2**31 - 1  # ids are SQL INTEGER columns: a larger value would overflow the database driver
 
 
@@ -57,7 +63,26 @@ class User(Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     username: Mapped[str] = mapped_column(String(64), unique=True)
     password_hash: Mapped[str] = mapped_column(String(255))
+    # Session tokens carry the epoch they were issued in; a password change moves it on.
+    token_epoch: Mapped[int] = mapped_column(Integer, default=0, server_default="0")
     created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+
+class AccessToken(Base):
+    """A personal access token: only its SHA-256 digest is kept (the secret is shown once)."""
+
+    __tablename__ = "access_tokens"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"), index=True)
+    name: Mapped[str] = mapped_column(String(100))
+    scope: Mapped[str] = mapped_column(String(8))  # read | write
+    projects: Mapped[list[int] | None] = mapped_column(JSON)  # None: every project of the user
+    digest: Mapped[str] = mapped_column(String(64), unique=True)
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    expires_at: Mapped[datetime | None] = mapped_column(Timestamp())
+
+    user: Mapped[User] = relationship(lazy="joined")
 
 
 class Project(Base):
@@ -71,6 +96,11 @@ class Project(Base):
         ForeignKey("versions.id", ondelete="SET NULL", use_alter=True)
     )
     created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    # Team review (v1.1): apply waits for an approval when set; the team's accepted result.
+    require_approval: Mapped[bool] = mapped_column(Boolean, default=False, server_default=text("false"))
+    published_version_id: Mapped[int | None] = mapped_column(
+        ForeignKey("versions.id", ondelete="SET NULL", use_alter=True)
+    )
 
 
 class Membership(Base):
@@ -136,8 +166,42 @@ class EditSetRow(Base):
     updated_by_id: Mapped[int | None] = mapped_column(ForeignKey("users.id", ondelete="SET NULL"))
     created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
     updated_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    created_by_id: Mapped[int | None] = mapped_column(ForeignKey("users.id", ondelete="SET NULL"))
+    review_state: Mapped[str] = mapped_column(String(24), default="draft", server_default="draft")
 
-    updated_by: Mapped[User | None] = relationship(lazy="joined")
+    updated_by: Mapped[User | None] = relationship(lazy="joined", foreign_keys=[updated_by_id])
+    created_by: Mapped[User | None] = relationship(lazy="joined", foreign_keys=[created_by_id])
+    reviews: Mapped[list[Review]] = relationship(viewonly=True, order_by="Review.id", lazy="selectin")
+
+
+class Webhook(Base):
+    """A project's subscription: events are POSTed to `url`, signed with `secret`."""
+
+    __tablename__ = "webhooks"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    url: Mapped[str] = mapped_column(String(2000))
+    events: Mapped[list[str]] = mapped_column(JSON)
+    secret: Mapped[str] = mapped_column(String(200))  # kept readable: each delivery is signed with it
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+
+class WebhookDelivery(Base):
+    """One event for one webhook: an outbox row written with the change, sent and retried after."""
+
+    __tablename__ = "webhook_deliveries"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    webhook_id: Mapped[int] = mapped_column(ForeignKey("webhooks.id", ondelete="CASCADE"), index=True)
+    event: Mapped[str] = mapped_column(String(32))
+    body: Mapped[str] = mapped_column(Text)  # the exact bytes signed and sent, as text
+    at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    state: Mapped[str] = mapped_column(String(16), default="pending", index=True)  # pending|ok|failed
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    next_attempt_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    status_code: Mapped[int | None] = mapped_column(Integer)
+    answer: Mapped[str | None] = mapped_column(Text)  # the receiver's reply or the error, cut short
 
 
 class Job(Base):
@@ -169,3 +233,90 @@ class Job(Base):
     started_at: Mapped[datetime | None] = mapped_column(Timestamp())
     heartbeat_at: Mapped[datetime | None] = mapped_column(Timestamp())
     finished_at: Mapped[datetime | None] = mapped_column(Timestamp())
+
+
+class Review(Base):
+    """A verdict on one revision of an edit set by someone other than its author."""
+
+    __tablename__ = "reviews"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    edit_set_id: Mapped[int] = mapped_column(ForeignKey("edit_sets.id", ondelete="CASCADE"), index=True)
+    reviewer_id: Mapped[int | None] = mapped_column(ForeignKey("users.id", ondelete="SET NULL"))
+    verdict: Mapped[str] = mapped_column(String(24))  # approve | request_changes
+    comment: Mapped[str] = mapped_column(Text, default="")
+    revision: Mapped[int] = mapped_column(Integer)
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+    reviewer: Mapped[User | None] = relationship(lazy="joined")
+
+
+class Comment(Base):
+    """A plain-text comment on an image, a pair, a version, an edit set or the project."""
+
+    __tablename__ = "comments"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    author_id: Mapped[int | None] = mapped_column(ForeignKey("users.id", ondelete="SET NULL"))
+    parent_id: Mapped[int | None] = mapped_column(ForeignKey("comments.id", ondelete="CASCADE"))
+    # The target: its kind and one key column per kind (so deleting the thing deletes its comments).
+    target_kind: Mapped[str] = mapped_column(String(16))  # image | pair | version | edit_set | project
+    image_id: Mapped[int | None] = mapped_column(ForeignKey("images.id", ondelete="CASCADE"))
+    image_id2: Mapped[int | None] = mapped_column(ForeignKey("images.id", ondelete="CASCADE"))  # of a pair
+    version_id: Mapped[int | None] = mapped_column(ForeignKey("versions.id", ondelete="CASCADE"))
+    edit_set_id: Mapped[int | None] = mapped_column(ForeignKey("edit_sets.id", ondelete="CASCADE"))
+    body: Mapped[str] = mapped_column(Text)
+    resolved: Mapped[bool] = mapped_column(Boolean, default=False)
+    created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    updated_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+    author: Mapped[User | None] = relationship(lazy="joined")
+
+
+class Activity(Base):
+    """The append-only audit log: one row per change, never updated (the username and the access
+    token's name are copied so the entry still says who after a rename or a revocation)."""
+
+    __tablename__ = "activity"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"))
+    at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    user_id: Mapped[int | None] = mapped_column(ForeignKey("users.id", ondelete="SET NULL"))
+    username: Mapped[str | None] = mapped_column(String(64))
+    token_name: Mapped[str | None] = mapped_column(String(100))
+    action: Mapped[str] = mapped_column(String(24))
+    target: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    detail: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+
+    __table_args__ = (Index("ix_activity_project_id_id", "project_id", "id"),)
+
+
+class Presence(Base):
+    """Where a member was last seen in a project (one row per member, overwritten by each report)."""
+
+    __tablename__ = "presence"
+
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), primary_key=True)
+    user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"), primary_key=True)
+    edit_set_id: Mapped[int | None] = mapped_column(ForeignKey("edit_sets.id", ondelete="SET NULL"))
+    version_id: Mapped[int | None] = mapped_column(ForeignKey("versions.id", ondelete="SET NULL"))
+    seen_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+
+    user: Mapped[User] = relationship(lazy="joined")
+
+
+class Notification(Base):
+    __tablename__ = "notifications"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"))
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"))
+    at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    kind: Mapped[str] = mapped_column(String(24))
+    target: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    text: Mapped[str] = mapped_column(Text)
+    read: Mapped[bool] = mapped_column(Boolean, default=False)
+
+    __table_args__ = (Index("ix_notifications_user_id_read", "user_id", "read"),)

@@ -1,4 +1,9 @@
-"""Engine and session factory from Settings; SQLite gets foreign keys, WAL and real transactions."""
+"""Engine and session factory from Settings; SQLite gets foreign keys, WAL and real transactions.
+
+On SQLite every transaction takes the write lock up front (BEGIN IMMEDIATE) unless its session was
+marked read-only: a deferred transaction that read and then writes fails at once with "database is
+locked" when another connection committed in between (the busy timeout does not apply to that
+upgrade), so concurrent saves, uploads and a worker's heartbeat would fail each other."""
 
 from __future__ import annotations
 
@@ -12,6 +17,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from guided_sfm.settings import Settings
 
 SQLITE_BUSY_SECONDS = 30  # the API and the worker write the same file in the embedded mode
+READ_ONLY = "guided_sfm_read_only"  # execution option: a transaction that never writes
 
 
 def make_engine(database_url: str, **kwargs: Any) -> Engine:
@@ -39,7 +45,15 @@ def _sqlite_connect(dbapi_connection: Any, _record: Any) -> None:
 
 
 def _sqlite_begin(connection: Any) -> None:
-    connection.exec_driver_sql("BEGIN")
+    read_only = connection.get_execution_options().get(READ_ONLY, False)
+    connection.exec_driver_sql("BEGIN" if read_only else "BEGIN IMMEDIATE")
+
+
+def read_only(session: Session) -> Session:
+    """Mark a fresh session's transactions as reads (SQLite then takes no write lock; WAL readers
+    never wait for writers); call it before the session's first query."""
+    session.connection(execution_options={READ_ONLY: True})
+    return session
 
 
 def make_sessionmaker(settings_or_engine: Settings | Engine) -> sessionmaker[Session]:

@@ -18,7 +18,9 @@ router = APIRouter(prefix="/auth", tags=["auth"])
 def token(form: Annotated[OAuth2PasswordRequestForm, Depends()], session: SessionDep,
           settings: SettingsDep) -> TokenOut:
     user = queries.user_by_name(session, form.username) if "\x00" not in form.username else None
-    if not security.verify_password(form.password, user.password_hash if user else None):
+    user_id, stored_hash, epoch = (user.id, user.password_hash, user.token_epoch) if user else (None, None, 0)
+    session.close()  # Argon2 takes a while and much memory: hold no connection (nor lock) meanwhile
+    if not security.verify_password(form.password, stored_hash):
         raise Unauthorized("wrong username or password")
-    return TokenOut(access_token=security.issue_token(user.id, settings.secret_key or "",
-                                                      settings.token_minutes))
+    return TokenOut(access_token=security.issue_token(user_id, settings.secret_key or "",
+                                                      settings.token_minutes, epoch))

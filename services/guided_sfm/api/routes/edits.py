@@ -4,8 +4,10 @@ from typing import Annotated
 
 from fastapi import APIRouter, Header, Response
 
-from guided_sfm.actions import edit_sets, rebase, version_data
+from guided_sfm.actions import edit_sets, rebase, review, version_data
+from guided_sfm.actions.activity import record
 from guided_sfm.api.deps import (
+    ActorDep,
     CurrentUser,
     EditorEditSet,
     EditorProject,
@@ -15,9 +17,19 @@ from guided_sfm.api.deps import (
     ViewerEditSet,
     ViewerProject,
 )
-from guided_sfm.api.schemas import ApplyIn, EditSetIn, EditSetOut, JobOut, PreviewOut, RebaseOut
+from guided_sfm.api.routes.jobs import job_out
+from guided_sfm.api.schemas import (
+    ApplyIn,
+    EditSetIn,
+    EditSetOut,
+    JobOut,
+    PreviewOut,
+    RebaseOut,
+    ReviewIn,
+    ReviewOut,
+)
 from guided_sfm.db import queries
-from guided_sfm.db.models import EditSetRow, Job, Version
+from guided_sfm.db.models import EditSetRow, Review, Version
 
 router = APIRouter(prefix="/projects/{pid}/edits", tags=["edits"])
 
@@ -29,13 +41,28 @@ def out(row: EditSetRow, response: Response | None = None,
     return EditSetOut(id=row.id, revision=row.revision, updated_at=row.updated_at,
                       updated_by=row.updated_by.username if row.updated_by else None,
                       applied_version_id=(applied or {}).get((row.id, row.revision)),
+                      author=row.created_by.username if row.created_by else None,
+                      review_state=row.review_state, reviews=[review_out(r) for r in row.reviews],
                       **{k: v for k, v in row.body.items() if k in EditSetIn.model_fields})
+
+
+def review_out(entry: Review, state: str | None = None) -> ReviewOut:
+    return ReviewOut(id=entry.id, reviewer=entry.reviewer.username if entry.reviewer else None,
+                     verdict=entry.verdict, comment=entry.comment, revision=entry.revision,
+                     created_at=entry.created_at, review_state=state)
+
+
+def saved(session: SessionDep, row: EditSetRow, actor: ActorDep) -> None:
+    record(session, row.project_id, actor, "edit_save", {"kind": "edit_set", "id": row.id},
+           {"revision": row.revision})
 
 
 @router.post("", status_code=201, response_model=EditSetOut)
 def create(body: EditSetIn, project: EditorProject, session: SessionDep, user: CurrentUser,
-           response: Response) -> EditSetOut:
-    return out(edit_sets.create(session, project, body.model_dump(), user.id), response)
+           response: Response, actor: ActorDep) -> EditSetOut:
+    row = edit_sets.create(session, project, body.model_dump(), user.id)
+    saved(session, row, actor)
+    return out(row, response)
 
 
 @router.get("", response_model=list[EditSetOut])
@@ -51,14 +78,19 @@ def read(row: ViewerEditSet, session: SessionDep, response: Response) -> EditSet
 
 @router.put("/{eid}", response_model=EditSetOut)
 def replace(row: EditorEditSet, body: EditSetIn, project: EditorProject, session: SessionDep,
-            user: CurrentUser, response: Response,
+            user: CurrentUser, response: Response, actor: ActorDep,
             if_match: Annotated[str | None, Header()] = None) -> EditSetOut:
-    return out(edit_sets.replace(session, project, row, body.model_dump(), if_match, user.id), response)
+    row = edit_sets.replace(session, project, row, body.model_dump(), if_match, user.id)
+    saved(session, row, actor)
+    return out(row, response)
 
 
 @router.delete("/{eid}", status_code=204)
-def delete(row: EditorEditSet, session: SessionDep) -> Response:
+def delete(row: EditorEditSet, session: SessionDep, actor: ActorDep) -> Response:
+    project_id, edit_set_id, revision = row.project_id, row.id, row.revision
     edit_sets.delete(session, row)
+    record(session, project_id, actor, "edit_delete", {"kind": "edit_set", "id": edit_set_id},
+           {"revision": revision})
     return Response(status_code=204)
 
 
@@ -69,14 +101,35 @@ def preview(row: ViewerEditSet, session: SessionDep, store: StoreDep) -> dict:
 
 @router.post("/{eid}/apply", status_code=202, response_model=JobOut)
 def apply(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
-          submit: SubmitDep, body: ApplyIn | None = None) -> Job:
-    return edit_sets.apply(session, submit, project, row, user.id, (body or ApplyIn()).remap)
+          submit: SubmitDep, actor: ActorDep, body: ApplyIn | None = None) -> JobOut:
+    body = body or ApplyIn()
+    review.check_apply(project, row)
+    job = edit_sets.apply(session, submit, project, row, user.id, body.remap, body.message)
+    record(session, project.id, actor, "apply", {"kind": "edit_set", "id": row.id},
+           {"job_id": job.id, "revision": row.revision, "message": body.message})
+    return job_out(session, job)
+
+
+@router.post("/{eid}/submit", response_model=EditSetOut)
+def submit_for_review(row: EditorEditSet, project: EditorProject, session: SessionDep,
+                      actor: ActorDep, response: Response) -> EditSetOut:
+    return out(review.submit(session, project, row, actor), response)
+
+
+@router.post("/{eid}/reviews", status_code=201, response_model=ReviewOut)
+def add_review(row: EditorEditSet, project: EditorProject, session: SessionDep, actor: ActorDep,
+               body: ReviewIn) -> ReviewOut:
+    entry = review.review(session, project, row, actor, body.verdict, body.comment)
+    return review_out(entry, row.review_state)
 
 
 @router.post("/{eid}/rebase", response_model=RebaseOut)
 def rebase_onto_head(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
-                     store: StoreDep, response: Response,
+                     store: StoreDep, response: Response, actor: ActorDep,
                      if_match: Annotated[str | None, Header()] = None) -> RebaseOut:
     """Carry the edit set onto the head (If-Match: its revision); the report says what was kept."""
+    before = row.revision
     row, report = rebase.rebase(session, store, project, row, if_match, user.id)
+    if row.revision != before:
+        saved(session, row, actor)
     return RebaseOut(**out(row, response).model_dump(), report=report)

@@ -6,7 +6,9 @@ from fastapi import APIRouter, File, Response, UploadFile
 from fastapi.responses import FileResponse
 
 from guided_sfm.actions import images as image_actions
+from guided_sfm.actions.activity import record
 from guided_sfm.api.deps import (
+    ActorDep,
     EditorImage,
     EditorProject,
     SessionDep,
@@ -24,10 +26,14 @@ router = APIRouter(prefix="/projects/{pid}/images", tags=["images"])
 
 @router.post("", status_code=201, response_model=list[ImageOut])
 def upload_images(project: EditorProject, session: SessionDep, store: StoreDep, settings: SettingsDep,
-                  files: Annotated[list[UploadFile], File(description="JPEG/PNG files or one .zip")]
-                  ) -> list[Image]:
+                  files: Annotated[list[UploadFile], File(description="JPEG/PNG files or one .zip")],
+                  actor: ActorDep) -> list[Image]:
     uploads = [(f.filename or "", f.file) for f in files]
-    return image_actions.upload(session, store, project, uploads, settings.max_upload_bytes)
+    rows = image_actions.upload(session, store, project, uploads, settings.max_upload_bytes,
+                                settings.max_image_mpx)
+    record(session, project.id, actor, "upload", {"kind": "project"},
+           {"count": len(rows), "image_ids": [row.id for row in rows]})
+    return rows
 
 
 @router.get("", response_model=list[ImageOut])

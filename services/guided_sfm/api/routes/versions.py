@@ -7,9 +7,11 @@ from fastapi.responses import FileResponse
 from starlette.background import BackgroundTask
 
 from guided_sfm.actions import export as export_action
-from guided_sfm.actions import lookup, version_data
+from guided_sfm.actions import lookup, project_settings, version_data
 from guided_sfm.actions import restore as restore_action
+from guided_sfm.actions.activity import record
 from guided_sfm.api.deps import (
+    ActorDep,
     CurrentUser,
     EditorProject,
     EditorVersion,
@@ -18,7 +20,7 @@ from guided_sfm.api.deps import (
     ViewerProject,
     ViewerVersion,
 )
-from guided_sfm.api.schemas import CompareOut, PairOut, VersionOut
+from guided_sfm.api.schemas import CompareOut, PairOut, ProjectOut, VersionOut
 from guided_sfm.db import queries
 from guided_sfm.db.models import MAX_ID, Version
 
@@ -51,14 +53,26 @@ def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep,
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)
 def restore(version: EditorVersion, project: EditorProject, session: SessionDep, store: StoreDep,
-            user: CurrentUser) -> VersionOut:
+            user: CurrentUser, actor: ActorDep) -> VersionOut:
     restored = restore_action.restore(session, store, project, version, user.id)
+    record(session, project.id, actor, "restore", {"kind": "version", "id": restored.id},
+           {"from_version_id": version.id})
     return out(restored, project.head_version_id)
+
+
+@router.post("/{vid}/publish", response_model=ProjectOut)
+def publish(version: EditorVersion, project: EditorProject, session: SessionDep, user: CurrentUser,
+            actor: ActorDep) -> ProjectOut:
+    """The version becomes the project's published result (`published_version_id`)."""
+    published = project_settings.publish(session, project, version, actor)
+    return ProjectOut.model_validate(published).model_copy(
+        update={"role": queries.role_of(session, project.id, user.id)})
 
 
 @router.get("/{vid}/export", response_class=FileResponse)
 def export(version: ViewerVersion, store: StoreDep,
-           format: Annotated[Literal["colmap", "ply"], Query()] = "colmap") -> FileResponse:
+           format: Annotated[Literal["colmap", "ply", "colmap_text", "nerfstudio"], Query()] = "colmap"
+           ) -> FileResponse:
     path, name, media_type = export_action.export(store, version, format)
     return FileResponse(path, media_type=media_type, filename=name,
                         background=BackgroundTask(path.unlink, missing_ok=True))
