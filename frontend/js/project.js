@@ -269,6 +269,10 @@ export class ProjectPage {
     }
     await this.sync.flush();
     if (this.sync.editId === null) await this.sync.save();
+    const cuts = this.store.preview?.pairs_to_delete?.length ?? 0;
+    const question = "The rule deletes no pair for these edits, so mapping again will most likely put " +
+      "the cameras back where they were. Run the reconstruction anyway?";
+    if (!cuts && !window.confirm(question)) return;
     try {
       const path = `/projects/${this.store.project.id}/edits/${this.sync.editId}/apply`;
       const job = await post(path, { remap: true });

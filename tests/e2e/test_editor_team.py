@@ -422,3 +422,16 @@ def test_a_known_distance_makes_the_scale_bar_speak_metres(page):
     page.reload()
     page.wait_for_selector("body[data-ready='1/1']")
     page.wait_for_function("document.querySelector('#scene').dataset.scaleLabel.endsWith(' m')")
+
+
+def test_running_a_reconstruction_that_cuts_nothing_asks_first(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    move(page, 2, "ArrowUp")  # a small step: the fake rule cuts nothing
+    assert page.get_attribute("#cut-counter", "data-count") == "0"
+    questions = []
+    page.once("dialog", lambda d: (questions.append(d.message), d.dismiss()))
+    page.get_by_role("button", name="Run reconstruction").click()
+    page.wait_for_timeout(300)
+    assert questions and "deletes no pair" in questions[0]
+    assert not [e for e in fake.log if e[1].endswith("/apply")]
