@@ -120,6 +120,7 @@ def test_matrix_covers_every_route(client, matrix):
     def shape(path):
         return tuple("{}" if part.isdigit() or part == "someone" else part for part in path.split("/"))
     open_routes = {("POST", "/api/v1/users"), ("POST", "/api/v1/auth/token"), ("GET", "/api/v1/health"),
+                   ("GET", "/api/v1/health/ready"),
                    ("GET", "/api/v1/projects"), ("POST", "/api/v1/projects"),
                    # the caller's own account (tests/api/test_tokens.py)
                    ("POST", "/api/v1/tokens"), ("GET", "/api/v1/tokens"),
