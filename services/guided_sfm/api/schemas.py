@@ -248,6 +248,7 @@ class EditSetOut(Out):
     tolerances: dict[str, float]
     updated_by: str | None
     updated_at: datetime
+    applied_version_id: int | None = None  # the version an apply of this revision made, if any
     author: str | None = None
     review_state: str = "draft"
     reviews: list[ReviewOut] = Field(default_factory=list)
