@@ -56,5 +56,6 @@ def _reuse_tree(context: JobContext, workspace: Workspace) -> None:
     for path in paths:
         tree = Workspace(context.store.version_dir(path)).tree
         if tree.is_file():
+            workspace.root.mkdir(parents=True, exist_ok=True)
             link_file(tree, workspace.tree)
             return
