@@ -2,7 +2,7 @@
 
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import FileResponse
 from starlette.background import BackgroundTask
 
@@ -10,6 +10,7 @@ from guided_sfm.actions import export as export_action
 from guided_sfm.actions import lookup, project_settings, version_data
 from guided_sfm.actions import restore as restore_action
 from guided_sfm.actions.activity import record
+from guided_sfm.api.compression import json_response
 from guided_sfm.api.deps import (
     ActorDep,
     CurrentUser,
@@ -40,9 +41,10 @@ def list_versions(project: ViewerProject, session: SessionDep) -> list[VersionOu
 
 
 @router.get("/{vid}/scene", response_model=dict[str, Any])
-def scene(version: ViewerVersion, session: SessionDep, store: StoreDep) -> Response:
-    """The top-down scene (cached per version; sent as pre-serialized JSON)."""
-    return Response(version_data.scene_json(session, store, version), media_type="application/json")
+def scene(version: ViewerVersion, session: SessionDep, store: StoreDep, request: Request) -> Response:
+    """The top-down scene (cached per version; sent as pre-serialized JSON, gzipped when the
+    client accepts it)."""
+    return json_response(version_data.scene_json(session, store, version), request)
 
 
 @router.get("/{vid}/pairs", response_model=list[PairOut])
