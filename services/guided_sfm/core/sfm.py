@@ -23,11 +23,12 @@ log = logging.getLogger(__name__)
 
 MATCHERS = ("auto", "exhaustive", "sequential", "retrieval")
 # `auto` matches exhaustively up to this many images and by retrieval above it. Exhaustive pairs
-# grow as n^2/2, retrieval's as n x (RETRIEVAL_NEIGHBOURS + overlap) plus building a tree:
-# measured on the rendered hall (benchmarks/bench_scale.py, docs/engine.md "Matching at scale"),
-# retrieval compares about half the pairs at 115 images and the break-even is near 60, where
-# a small capture should keep every pair (repeated structures need the exhaustive evidence).
-AUTO_EXHAUSTIVE_MAX_IMAGES = 150
+# grow as n^2/2; retrieval's as about 15 n (20 retrieved and 10 along capture order per image,
+# many shared), plus ~40 s to train and query the tree at 115 images. Measured on the rendered hall
+# (benchmarks/bench_scale.py, docs/engine.md "Matching at scale"): matching took the same time
+# at 55 images, retrieval was the faster above; registration and wrong cameras were the same.
+# 100 keeps every capture the product was tuned on (murals 57, office 48, Lund 29) exhaustive.
+AUTO_EXHAUSTIVE_MAX_IMAGES = 100
 # SIFT (first octave, contrast threshold). "standard" starts at the image's own resolution, not
 # twice it, and lowers the threshold to keep the count: COLMAP drops the finest scales first when
 # it caps, so the doubled octave was mostly computed and thrown away (extraction 3x faster on
