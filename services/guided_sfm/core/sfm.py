@@ -24,10 +24,11 @@ log = logging.getLogger(__name__)
 MATCHERS = ("auto", "exhaustive", "sequential", "retrieval")
 # `auto` matches exhaustively up to this many images and by retrieval above it. Exhaustive pairs
 # grow as n^2/2; retrieval's as about 15 n (20 retrieved and 10 along capture order per image,
-# many shared), plus ~40 s to train and query the tree at 115 images. Measured on the rendered hall
-# (benchmarks/bench_scale.py, docs/engine.md "Matching at scale"): matching took the same time
-# at 55 images, retrieval was the faster above; registration and wrong cameras were the same.
-# 100 keeps every capture the product was tuned on (murals 57, office 48, Lund 29) exhaustive.
+# many shared), plus training and querying the tree (~12 s at 115 images). Measured side by side
+# on the rendered hall (benchmarks/bench_scale.py, docs/engine.md "Matching at scale"), matching
+# took 8.8 s exhaustive against 6.2 s retrieval at 55 images and 36 s against 27 s at 115, with
+# the same registration and wrong cameras. Below 100 retrieval saves seconds, not minutes, so
+# small captures keep every pair: all those the product was tuned on (murals 57, Lund 29).
 AUTO_EXHAUSTIVE_MAX_IMAGES = 100
 # SIFT (first octave, contrast threshold). "standard" starts at the image's own resolution, not
 # twice it, and lowers the threshold to keep the count: COLMAP drops the finest scales first when
