@@ -69,7 +69,7 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         status = evaluation.camera_status(new, truth, reference=reference)
         base = new
     return {"layout": layout, "rule": rule, "seed": seed, "tolerances": dict(tolerances or {}),
-            "rounds": reports,
+            **Workspace(out_dir / "round0").used(), "rounds": reports,
             "summary": _summary(reports, status)}
 
 
@@ -117,7 +117,8 @@ def _cell(value: object) -> str:
 
 def print_report(result: dict) -> None:
     """A per-round table, pruning scores and stage times on stdout."""
-    print(f"layout {result['layout']}, rule {result['rule']}, seed {result['seed']}")
+    print(f"layout {result['layout']}, rule {result['rule']}, seed {result['seed']}, "
+          f"matcher {result.get('matcher', '-')}, mapper {result.get('mapper', '-')}")
     print("  ".join(f"{title:>9}" for title, _ in ROUND_COLUMNS)
           + "  pruning P/R/F1   seconds per stage")
     for report in result["rounds"]:
