@@ -326,3 +326,30 @@ def test_tolerance_overrides_merge_over_the_defaults():
     assert resolve({}) == Tolerances()
     assert resolve({"placement_deg": 30}).placement_deg == 30.0
     assert resolve({"placement_deg": 30}).rotation_deg == Tolerances().rotation_deg
+
+
+def _folded_run(rng) -> tuple[Capture, set, set]:
+    """The orbit above, plus look-alike pairs between two cameras of the folded run itself: the
+    run turned as a whole keeps their relative rotation, so the model agrees with a placement."""
+    capture, true_pairs, false_pairs = _orbit(rng)
+    turn = ground_motion(90.0, (0, 0, 0))[0]
+    inside = set()
+    for i in sorted(capture.cluster):
+        for j in (i + 4, i + 5):  # 60-75 deg on: j's side looks like i's own, a quarter turn on
+            if j in capture.cluster:
+                seen = _face_points(rng, 15.0 * i)
+                capture.match(i, j, seen, seen @ turn.T)
+                inside.add((i, j))
+    return capture, true_pairs, false_pairs | inside
+
+
+def test_a_run_folded_as_a_whole_loses_its_inner_look_alike_pairs():
+    # A capture-shape user re-lays every camera (issue 20): pairs between two moved cameras whose
+    # relative rotation the fold kept are judged by their own two-view pose.
+    capture, true_pairs, false_pairs = _folded_run(np.random.default_rng(3))
+    edits = capture.placement(set(capture.poses), turn_deg=8.0)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    inside = {p for p in false_pairs if set(p) <= capture.cluster}
+    assert len(inside) == 3 and inside <= set(result.deleted)
+    assert all("rotation" in result.reasons[p] for p in inside)
+    assert true_pairs.isdisjoint(result.deleted)

@@ -40,6 +40,11 @@ RING = 16  # translation directions sampled on the rim of the placed baseline's 
 # reweighted least squares towards the smallest absolute residuals, which strays pull little.
 IRLS_STEPS, IRLS_FLOOR_DEG = 2, 0.05
 RECHECKED_CANDIDATES = 5  # of the YAW_STEPS rotations, those with the lowest RMS
+# A pair between two moved cameras is judged by its own two-view pose even where the model already
+# agrees with the placements: a run folded as a whole (both members turned alike) keeps its relative
+# rotation, and its look-alike pairs pass the epipolar stage along the ring. Strong pairs only: their
+# pose is well determined, and the per-pair check stays within the preview's time.
+BOTH_MOVED_MIN_INLIERS = 60
 # [t]x = sum_m t_m GENERATORS[m]
 GENERATORS = np.array([[[0, 0, 0], [0, 0, -1], [0, 1, 0]],
                        [[0, 0, 1], [0, 0, 0], [-1, 0, 0]],
@@ -171,17 +176,26 @@ def rotation_test(flat: FlatMatches, motions: Motions, evidence: Evidence,
     out, residual[chosen] = _epipolar_verdict(rays, pair, flat.counts[chosen], candidates, cones,
                                               tolerances)
     model_rel = evidence.rotations[rows[:, 1]] @ np.swapaxes(evidence.rotations[rows[:, 0]], 1, 2)
-    turned = ~out & reoriented(model_rel, candidates, span)
+    both = (motions.moved_members(rows) == 2) & (flat.inliers[chosen] >= BOTH_MOVED_MIN_INLIERS)
+    check = ~out & (reoriented(model_rel, candidates, span) | both)
     if decided is not None:
-        turned &= ~decided[chosen]
-    bounds = np.searchsorted(pair, np.arange(len(chosen) + 1))
-    for index in np.flatnonzero(turned):
+        check &= ~decided[chosen]
+    out |= _two_view_verdict(rays, pair, np.flatnonzero(check), candidates, cones, tolerances)
+    removed[chosen] = out
+    return Verdicts(removed, judged, residual)
+
+
+def _two_view_verdict(rays, pair: np.ndarray, indices: np.ndarray, candidates: np.ndarray,
+                      cones, tolerances: Tolerances) -> np.ndarray:
+    """(P,) removed by the two-view stage, run on the pairs at `indices` one at a time."""
+    out = np.zeros(len(candidates), dtype=bool)
+    bounds = np.searchsorted(pair, np.arange(len(candidates) + 1))
+    for index in indices:
         block = slice(bounds[index], bounds[index + 1])
         disagreement = two_view_disagreement(rays[0][block], rays[1][block], candidates[index],
                                              cones[0][index], cones[1][index])
         out[index] = disagreement > tolerances.two_view_deg
-    removed[chosen] = out
-    return Verdicts(removed, judged, residual)
+    return out
 
 
 def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Tolerances
