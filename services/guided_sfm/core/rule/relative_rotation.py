@@ -173,10 +173,12 @@ def rotation_test(flat: FlatMatches, motions: Motions, evidence: Evidence,
                          motions.moved_members(rows))
     candidates = yaw_candidates(motions, rows, span)
     cones = baseline_cones(motions, rows, tolerances)
+    moments = epipolar_moments(rays[0], rays[1], pair, len(chosen))
     out, residual[chosen] = _epipolar_verdict(rays, pair, flat.counts[chosen], candidates, cones,
-                                              tolerances)
+                                              tolerances, moments)
     model_rel = evidence.rotations[rows[:, 1]] @ np.swapaxes(evidence.rotations[rows[:, 0]], 1, 2)
     both = (motions.moved_members(rows) == 2) & (flat.inliers[chosen] >= BOTH_MOVED_MIN_INLIERS)
+    both[both] = linear_disagreement(moments[both], candidates[both]) > tolerances.two_view_deg
     check = ~out & (reoriented(model_rel, candidates, span) | both)
     if decided is not None:
         check &= ~decided[chosen]
@@ -198,8 +200,8 @@ def _two_view_verdict(rays, pair: np.ndarray, indices: np.ndarray, candidates: n
     return out
 
 
-def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Tolerances
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Tolerances,
+                      moments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(removed, residual deg): no rotation in the yaw range explains the matches (vectorised).
 
     The residual is the RMS under the best pose; where that is above the limit, the pair is
@@ -207,7 +209,6 @@ def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Toleran
     most of its matches, though a minority (look-alikes in a true pair, by design.md's definition
     up to half of them, or rays a slightly wrong model tilt leaves off) pushes the RMS past it.
     """
-    moments = epipolar_moments(rays[0], rays[1], pair, len(counts))
     rms = epipolar_rms(moments, counts, candidates, *cones)
     residual = np.degrees(np.arcsin(np.minimum(rms.min(axis=1), 1.0)))
     limit = np.degrees(np.minimum(np.maximum(
@@ -244,6 +245,21 @@ def robust_residual(rays, pair, candidates, cones) -> np.ndarray:
         weight = 1.0 / np.maximum(degrees, IRLS_FLOOR_DEG)
     medians = [segment_median(degrees[:, k], pair, count) for k in range(degrees.shape[1])]
     return np.min(medians, axis=0)
+
+
+def linear_disagreement(moments: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+    """(P,) degrees between the nearest candidate (P, K, 3, 3) and either rotation of the pair's
+    linear (8-point) essential matrix: a vectorised screen before the costlier two-view stage;
+    a pair whose linear pose is near the placement is not checked further."""
+    if len(moments) == 0:
+        return np.zeros(0)
+    _, vectors = np.linalg.eigh(moments)
+    u, _, vt = np.linalg.svd(vectors[..., 0].reshape(-1, 3, 3))
+    u = u * np.sign(np.linalg.det(u))[:, None, None]
+    vt = vt * np.sign(np.linalg.det(vt))[:, None, None]
+    turn = np.array([[0, -1.0, 0], [1, 0, 0], [0, 0, 1]])
+    twisted = np.stack([u @ turn @ vt, u @ turn.T @ vt], axis=1)  # E = [t]x R has two R
+    return rotation_angles_deg(twisted[:, :, None], candidates[:, None]).min(axis=(1, 2))
 
 
 def reoriented(model_rel: np.ndarray, candidates: np.ndarray, span_deg: np.ndarray) -> np.ndarray:
