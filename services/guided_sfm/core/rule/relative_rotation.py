@@ -43,7 +43,9 @@ RECHECKED_CANDIDATES = 5  # of the YAW_STEPS rotations, those with the lowest RM
 # A pair between two moved cameras is judged by its own two-view pose even where the model already
 # agrees with the placements: a run folded as a whole (both members turned alike) keeps its relative
 # rotation, and its look-alike pairs pass the epipolar stage along the ring. Strong pairs only: their
-# pose is well determined, and the per-pair check stays within the preview's time.
+# pose is well determined, and the per-pair check stays within the preview's time. A vectorised
+# linear (8-point) pose screens them first; noisy, it is trusted only when within half of
+# two_view_deg of the placement (orbit round 1: a false pair at 12.8 deg linear was 61 deg off).
 BOTH_MOVED_MIN_INLIERS = 60
 # [t]x = sum_m t_m GENERATORS[m]
 GENERATORS = np.array([[[0, 0, 0], [0, 0, -1], [0, 1, 0]],
@@ -178,7 +180,7 @@ def rotation_test(flat: FlatMatches, motions: Motions, evidence: Evidence,
                                               tolerances, moments)
     model_rel = evidence.rotations[rows[:, 1]] @ np.swapaxes(evidence.rotations[rows[:, 0]], 1, 2)
     both = (motions.moved_members(rows) == 2) & (flat.inliers[chosen] >= BOTH_MOVED_MIN_INLIERS)
-    both[both] = linear_disagreement(moments[both], candidates[both]) > tolerances.two_view_deg
+    both[both] = linear_disagreement(moments[both], candidates[both]) > tolerances.two_view_deg / 2
     check = ~out & (reoriented(model_rel, candidates, span) | both)
     if decided is not None:
         check &= ~decided[chosen]
