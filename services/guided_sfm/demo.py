@@ -7,7 +7,7 @@ import tempfile
 from pathlib import Path
 
 from guided_sfm import sample
-from guided_sfm.core import evaluation, metrics, simulated_user
+from guided_sfm.core import checked_round, evaluation, metrics, simulated_user
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.sfm import RunContext, SfmOptions
 from guided_sfm.core.stage_clock import StageClock
@@ -55,7 +55,7 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         new = Workspace(out_dir / f"round{number}")
         with clock.timed("prune"):
             outcome = base.prune(edits, new)
-        mapped = new.map_again(run, cold=cold)
+        mapped, checked = checked_round.map_checked(new, edits, run, cold=cold)
         report = evaluation.evaluate_workspace(new, truth_file, reference_from=base,
                                                before_reference=reference)
         reports.append({"round": number, **report, "num_moved": len(edits.cameras),
@@ -63,6 +63,7 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
                         "components_after": outcome.components_after,
                         "split": report["num_models"] > reports[-1]["num_models"],
                         "map_mode": mapped.mode, "map_fallback": mapped.fallback,
+                        "checked_pairs": len(checked),
                         "seconds": clock.take()})
         # "Right" keeps one meaning across rounds: align on what was right before this round.
         reference = status.right
