@@ -1,10 +1,12 @@
 """The checked re-map: which moved cameras landed far from their placements."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from guided_sfm.core.checked_round import CHECK_SIGMAS, far_from_placement, in_frame
-from guided_sfm.core.types import CameraEdit, GroundFrame, SceneCamera, TopDownScene
+from guided_sfm.core.checked_round import CHECK_SIGMAS, anchors, far_from_placement, in_frame
+from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
 
 from .synthetic import FRAME
 
@@ -39,3 +41,11 @@ def test_only_cameras_beyond_the_users_uncertainty_are_far():
                   CameraEdit(4, 50.0, 0.0, 0.0)]  # not registered: nothing to compare
     far = far_from_placement(scene, placements, position_share=0.25)
     assert [p.image_id for p in far] == [2]
+
+
+def test_only_unmoved_registered_cameras_anchor_the_check():
+    scene = TopDownScene(FRAME, [_camera(1, 0.0, 0.0), _camera(2, 1.0, 0.0), _camera(3, 2.0, 0.0),
+                                 _camera(4, 0.0, 0.0, range_=None)], np.zeros((0, 2)))
+    scene.cameras[3] = dataclasses.replace(scene.cameras[3], x=None, y=None)
+    edits = EditSet([CameraEdit(1, 0.0, 0.0, 0.0)])
+    assert anchors(scene, edits) == 2  # 2 and 3: camera 1 moved, 4 not registered

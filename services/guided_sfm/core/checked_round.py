@@ -28,6 +28,9 @@ CHECK_PASSES = 2  # at most this many extra prune + map passes per round
 # A camera is far from its placement beyond this many of its positional uncertainties
 # (position_share x range, the rule's own allowance for the user's error).
 CHECK_SIGMAS = 3.0
+# The new model is in the base's frame only when the re-map could be aligned on cameras the round
+# did not move (colmap_model.align_models needs 3); without them there is nothing to compare with.
+MIN_ANCHORS = 3
 
 
 def in_frame(placement: CameraEdit, source: GroundFrame, target: GroundFrame) -> CameraEdit:
@@ -56,6 +59,12 @@ def far_from_placement(scene: TopDownScene, placements: list[CameraEdit],
     return far
 
 
+def anchors(scene: TopDownScene, edits: EditSet) -> int:
+    """Registered cameras of the scene that the edit set did not move."""
+    moved = {placement.image_id for placement in edits.cameras}
+    return sum(1 for c in scene.cameras if c.x is not None and c.image_id not in moved)
+
+
 def _delete_in_place(ws: Workspace, pairs: list[PairKey]) -> None:
     staging = ws.database.with_suffix(".check")
     colmap_db.copy_without_pairs(ws.database, staging, pairs)
@@ -75,6 +84,8 @@ def map_checked(ws: Workspace, edits: EditSet, run: RunContext = RunContext(),
     checked: list[PairKey] = []
     for _ in range(CHECK_PASSES):
         scene = ws.scene()
+        if anchors(scene, edits) < MIN_ANCHORS:
+            break
         far = far_from_placement(scene, [in_frame(c, frame, scene.frame) for c in edits.cameras],
                                  share)
         if not far:
