@@ -176,7 +176,8 @@ def cmd_demo(args: argparse.Namespace) -> None:
         result = demo.run_demo(layout=args.layout, seed=args.seed, rounds=args.rounds,
                                rule=args.rule, out_dir=Path(args.out) if args.out else None,
                                options=_options(args), progress=bar, cold=args.cold,
-                               tolerances=_tolerances(args.tolerance), reuse=args.reuse)
+                               tolerances=_tolerances(args.tolerance), reuse=args.reuse,
+                               user=args.user)
     if args.json:
         print_json(result)
     else:
@@ -220,6 +221,9 @@ def build_parser() -> argparse.ArgumentParser:
                            "help": "override one of the default rule's tolerances"}),
           ("--reuse", {"action": "store_true",
                        "help": "start from --out's existing sample and round0 if present"}),
+          ("--user", {"default": "wrong", "choices": ["wrong", "all"],
+                      "help": "wrong: place the wrong cameras near their truth; all: re-lay every "
+                              "camera of an orbit on a circle in capture order"}),
           ("--json", {"action": "store_true"})])
     _register_service(sub)
     return parser
