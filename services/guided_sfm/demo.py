@@ -69,7 +69,8 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         reference = status.right
         status = evaluation.camera_status(base, truth, reference=reference)
     return {"layout": layout, "rule": rule, "seed": seed, "user": user,
-            "tolerances": loop.tolerances, "rounds": reports, "summary": _summary(reports, status)}
+            "tolerances": loop.tolerances, **Workspace(out_dir / "round0").used(),
+            "rounds": reports, "summary": _summary(reports, status)}
 
 
 def _round(loop: _Loop, number: int, base: Workspace, truth, targets: list[str],
@@ -154,7 +155,8 @@ def _cell(value: object) -> str:
 
 def print_report(result: dict) -> None:
     """A per-round table, pruning scores and stage times on stdout."""
-    print(f"layout {result['layout']}, rule {result['rule']}, seed {result['seed']}")
+    print(f"layout {result['layout']}, rule {result['rule']}, seed {result['seed']}, "
+          f"matcher {result.get('matcher', '-')}, mapper {result.get('mapper', '-')}")
     print("  ".join(f"{title:>9}" for title, _ in ROUND_COLUMNS)
           + "  pruning P/R/F1   seconds per stage")
     for report in result["rounds"]:

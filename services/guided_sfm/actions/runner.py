@@ -22,6 +22,7 @@ from guided_sfm.core.sfm import CancelToken
 from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.db.models import Image, Job
 from guided_sfm.db.session import session_scope
+from guided_sfm.errors import without_paths
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
@@ -150,6 +151,7 @@ def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: J
 
 
 def _end(sessions: sessionmaker[Session], job_id: int, state: str, clock: StageClock, **values: str) -> str:
+    values = {key: without_paths(text) for key, text in values.items()}  # users see these; paths stay here
     with session_scope(sessions) as session:
         if jobs.finish(session, job_id, state, timings=clock.report(), **values):
             webhooks.job_finished(session, session.get(Job, job_id), state, error=values.get("error"))

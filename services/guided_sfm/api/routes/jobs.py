@@ -13,6 +13,7 @@ from guided_sfm.api.deps import (
     CurrentUser,
     EditorJob,
     EditorProject,
+    PageDep,
     SessionDep,
     SettingsDep,
     StoreDep,
@@ -60,8 +61,8 @@ def import_(project: EditorProject, session: SessionDep, user: CurrentUser, subm
 
 
 @router.get("/projects/{pid}/jobs", response_model=list[JobOut])
-def list_jobs(project: ViewerProject, session: SessionDep) -> list[JobOut]:
-    return jobs_out(session, queries.jobs(session, project.id))
+def list_jobs(project: ViewerProject, session: SessionDep, page: PageDep) -> list[JobOut]:
+    return jobs_out(session, page.of(queries.jobs(session, project.id)))
 
 
 @router.get("/jobs/{job_id}", response_model=JobOut)
