@@ -4,6 +4,7 @@ prune, map again, and measure each round against the ground truth."""
 from __future__ import annotations
 
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 from guided_sfm import sample
@@ -16,32 +17,44 @@ from guided_sfm.core.types import DEFAULT_RULE, Progress, no_progress
 from guided_sfm.core.workspace import Workspace
 
 
+@dataclass(frozen=True)
+class _Loop:
+    """What every round of one demo shares."""
+
+    out_dir: Path
+    truth_file: Path
+    rule: str
+    tolerances: dict[str, float]
+    user: str
+    seed: int
+    run: RunContext
+    clock: StageClock
+    cold: bool
+
+
 def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1,
              rule: str = DEFAULT_RULE, out_dir: Path | None = None,
              options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
              cold: bool = False, tolerances: dict[str, float] | None = None,
              reuse: bool = False, user: str = "wrong") -> dict:
-    """Run the loop; returns {layout, rule, rounds: [per-round report], summary}.
-
-    With reuse, an out_dir that already holds the sample and its first reconstruction (round0)
-    starts from them, so rules and tolerances compare on the same reconstruction. user: who the
-    simulated user places (USERS).
-    """
+    """Run the loop; returns {layout, rule, rounds: [per-round report], summary}. With reuse, an
+    out_dir holding the sample and its first reconstruction (round0) starts from them, so rules
+    and tolerances compare on one reconstruction; user: who the simulated user places (USERS)."""
     if out_dir is None:
         with tempfile.TemporaryDirectory(prefix="guided-sfm-demo-") as tmp:
             return run_demo(layout, seed, rounds, rule, Path(tmp), options, progress, cold,
                             tolerances, user=user)
     clock = StageClock(progress)
-    run = RunContext(options, clock)
-    truth_file = out_dir / "sample" / "truth.json"
+    loop = _Loop(out_dir, out_dir / "sample" / "truth.json", rule, dict(tolerances or {}), user,
+                 seed, RunContext(options, clock), clock, cold)
     base = Workspace(out_dir / "round0")
-    if not (reuse and truth_file.is_file() and base.sparse.is_dir()):
+    if not (reuse and loop.truth_file.is_file() and base.sparse.is_dir()):
         with clock.timed("render"):
             sample.write_sample(out_dir / "sample", layout, seed)
-        base.reconstruct(out_dir / "sample" / "images", run)
-    truth = load_truth(truth_file)
-    first = evaluation.evaluate_workspace(base, truth_file)
-    reports = [{"round": 0, **first, "seconds": clock.take()}]
+        base.reconstruct(out_dir / "sample" / "images", loop.run)
+    truth = load_truth(loop.truth_file)
+    reports = [{"round": 0, **evaluation.evaluate_workspace(base, loop.truth_file),
+                "seconds": clock.take()}]
     # status says who the simulated user moves; the round's report must judge "wrong before"
     # on the same alignment, so it is given the reference that status was aligned on.
     reference, status = None, evaluation.camera_status(base, truth)
@@ -49,30 +62,38 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         targets = [n for n in status.wrong + status.unregistered if n in truth.cameras]
         if not targets:
             break
-        placements = _place(user, base.scene(), truth, targets, status, seed + number)
-        edits = parse_edits({"cameras": [vars(c) for c in placements], "rule": rule,
-                             "tolerances": dict(tolerances or {})}, base.image_ids())
-        new = Workspace(out_dir / f"round{number}")
-        with clock.timed("prune"):
-            outcome = base.prune(edits, new)
-        mapped, checked = checked_round.map_checked(new, edits, run, cold=cold)
-        report = evaluation.evaluate_workspace(new, truth_file, reference_from=base,
-                                               before_reference=reference)
-        reports.append({"round": number, **report, "num_moved": len(edits.cameras),
-                        "components_before": outcome.components_before,
-                        "components_after": outcome.components_after,
-                        "split": report["num_models"] > reports[-1]["num_models"],
-                        "map_mode": mapped.mode, "map_fallback": mapped.fallback,
-                        "checked_pairs": len(checked),
+        report, base = _round(loop, number, base, truth, targets, status, reference)
+        reports.append({**report, "split": report["num_models"] > reports[-1]["num_models"],
                         "seconds": clock.take()})
         # "Right" keeps one meaning across rounds: align on what was right before this round.
         reference = status.right
-        status = evaluation.camera_status(new, truth, reference=reference)
-        base = new
+        status = evaluation.camera_status(base, truth, reference=reference)
     return {"layout": layout, "rule": rule, "seed": seed, "user": user,
-            "tolerances": dict(tolerances or {}),
-            **Workspace(out_dir / "round0").used(), "rounds": reports,
-            "summary": _summary(reports, status)}
+            "tolerances": loop.tolerances, **Workspace(out_dir / "round0").used(),
+            "rounds": reports, "summary": _summary(reports, status)}
+
+
+def _round(loop: _Loop, number: int, base: Workspace, truth, targets: list[str],
+           status: evaluation.CameraStatus, reference: list[str] | None) -> tuple[dict, Workspace]:
+    """One round: the simulated user places, the rule prunes, the checked re-map maps again."""
+    placements = _place(loop.user, base.scene(), truth, targets, status, loop.seed + number)
+    edits = parse_edits({"cameras": [vars(c) for c in placements], "rule": loop.rule,
+                         "tolerances": dict(loop.tolerances)}, base.image_ids())
+    new = Workspace(loop.out_dir / f"round{number}")
+    with loop.clock.timed("prune"):
+        outcome = base.prune(edits, new)
+    mapped, checked = checked_round.map_checked(new, edits, loop.run, cold=loop.cold)
+    report = evaluation.evaluate_workspace(new, loop.truth_file, reference_from=base,
+                                           before_reference=reference)
+    return {"round": number, **report, **_round_facts(edits, outcome, mapped),
+            "checked_pairs": len(checked)}, new
+
+
+def _round_facts(edits, outcome, mapped) -> dict:
+    """What a round did, beside its evaluation: moved cameras, match graph, how it mapped."""
+    return {"num_moved": len(edits.cameras), "components_before": outcome.components_before,
+            "components_after": outcome.components_after, "map_mode": mapped.mode,
+            "map_fallback": mapped.fallback}
 
 
 # The simulated users: "wrong" places each wrong or unregistered camera near its true pose;

@@ -47,6 +47,7 @@ RECHECKED_CANDIDATES = 5  # of the YAW_STEPS rotations, those with the lowest RM
 # linear (8-point) pose screens them first; noisy, it is trusted only when within half of
 # two_view_deg of the placement (orbit round 1: a false pair at 12.8 deg linear was 61 deg off).
 BOTH_MOVED_MIN_INLIERS = 60
+SCREEN_RATIO = 10.0
 # [t]x = sum_m t_m GENERATORS[m]
 GENERATORS = np.array([[[0, 0, 0], [0, 0, -1], [0, 1, 0]],
                        [[0, 0, 1], [0, 0, 0], [-1, 0, 0]],
@@ -180,7 +181,7 @@ def rotation_test(flat: FlatMatches, motions: Motions, evidence: Evidence,
                                               tolerances, moments)
     model_rel = evidence.rotations[rows[:, 1]] @ np.swapaxes(evidence.rotations[rows[:, 0]], 1, 2)
     both = (motions.moved_members(rows) == 2) & (flat.inliers[chosen] >= BOTH_MOVED_MIN_INLIERS)
-    both[both] = linear_disagreement(moments[both], candidates[both]) > tolerances.two_view_deg / 2
+    both &= _screened(moments, flat.counts[chosen], candidates, residual[chosen], both, tolerances)
     check = ~out & (reoriented(model_rel, candidates, span) | both)
     if decided is not None:
         check &= ~decided[chosen]
@@ -247,6 +248,19 @@ def robust_residual(rays, pair, candidates, cones) -> np.ndarray:
         weight = 1.0 / np.maximum(degrees, IRLS_FLOOR_DEG)
     medians = [segment_median(degrees[:, k], pair, count) for k in range(degrees.shape[1])]
     return np.min(medians, axis=0)
+
+
+def _screened(moments, counts, candidates, residual, chosen, tolerances: Tolerances) -> np.ndarray:
+    """(P,) the chosen pairs worth the two-view stage: their linear pose is off the placement by
+    more than half of two_view_deg, or the placed pose leaves a residual both SCREEN_RATIO times
+    their best fit's and above a quarter of epipolar_deg (orbit, seed 7: look-alike pairs whose
+    linear pose sat within 2-7 deg of the placement, their 5-point pose 41-77 deg away)."""
+    out = np.zeros(len(chosen), dtype=bool)
+    best = np.degrees(np.arcsin(np.minimum(best_rms(moments[chosen], counts[chosen]), 1.0)))
+    poor = (residual[chosen] > SCREEN_RATIO * best) & (residual[chosen] > tolerances.epipolar_deg / 4)
+    out[chosen] = poor | (linear_disagreement(moments[chosen], candidates[chosen])
+                          > tolerances.two_view_deg / 2)
+    return out
 
 
 def linear_disagreement(moments: np.ndarray, candidates: np.ndarray) -> np.ndarray:
