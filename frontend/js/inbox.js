@@ -1,7 +1,8 @@
 // Notifications in the top bar: a badge with the unread count (polled) and a list that marks
 // what it shows as read.
 import { get, post, session } from "./api.js";
-import { POLL_MS } from "./team.js";
+
+const POLL_MS = 10000; // as the team panel's
 
 export class Inbox {
   constructor(button, panel) {
