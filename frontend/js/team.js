@@ -162,8 +162,14 @@ export class TeamPanel {
 
   // -- review ------------------------------------------------------------------------------------
 
+  // The edit set this page edits, else the newest one on the version on screen (a colleague's,
+  // started after this page opened: the one a reviewer is asked about).
   async loadReview() {
-    const id = this.editSetId();
+    let id = this.editSetId();
+    if (id === null && this.store.version) {
+      const sets = ((await get(`${this.base}/edits`)) ?? []).filter((e) => e.base_version_id === this.store.version.id);
+      id = sets.sort((a, b) => b.id - a.id)[0]?.id ?? null;
+    }
     this.editSet = id === null ? null : await get(`${this.base}/edits/${id}`);
     this.renderReview();
   }
@@ -216,7 +222,7 @@ export class TeamPanel {
   // -- presence ----------------------------------------------------------------------------------
 
   async loadPresence() {
-    const body = { version_id: this.store.version?.id ?? null, edit_set_id: this.editSetId() };
+    const body = { version_id: this.store.version?.id ?? null, edit_set_id: this.editSetId() ?? this.editSet?.id ?? null };
     const people = (await post(`${this.base}/presence`, body)) ?? [];
     const line = this.el("presence");
     line.dataset.users = people.map((p) => p.username).join(",");
@@ -246,6 +252,7 @@ export function drawPins(ctx, t, px, view, counts) {
   ctx.font = `${10 * px}px system-ui, sans-serif`;
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";
+  const at = []; // where each pin was drawn (device pixels), for tests and tools
   for (const cam of view.cameras) {
     const n = counts.get(cam.id);
     const pose = n && view.poseOf(cam);
@@ -258,6 +265,8 @@ export function drawPins(ctx, t, px, view, counts) {
     ctx.fill();
     ctx.fillStyle = "#fff";
     ctx.fillText(String(n), cx, cy + 0.5 * px);
+    at.push(`${cam.id}:${Math.round(cx - 4 * px)},${Math.round(cy)}`);
   }
   ctx.restore();
+  view.canvas.dataset.pinsAt = at.join(" ");
 }

@@ -54,7 +54,7 @@ def change_settings(body: ProjectPatch, project: OwnerProject, session: SessionD
                     actor: ActorDep) -> ProjectOut:
     """Owners change the name, description and `require_approval` (apply then waits for approval)."""
     changed = project_settings.change(session, project, body.model_dump(exclude_unset=True), actor)
-    return out(changed, "owner")
+    return out(session, changed, actor.user_id)
 
 
 @router.delete("/{pid}", status_code=204)
