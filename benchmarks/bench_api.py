@@ -1,4 +1,6 @@
-"""Load benchmark of the REST API: N concurrent clients polling a job and reading a version's scene.
+"""Load benchmark of the REST API: N concurrent clients polling a job and reading a version's scene,
+beside M team members (each signed up and made a viewer) polling presence and their notifications
+as the editor does.
 
     python benchmarks/bench_api.py                       # starts `guided-sfm serve --sample` in a temp dir
     python benchmarks/bench_api.py --data-dir /tmp/bench     # the same, kept for a quicker rerun
@@ -52,26 +54,31 @@ def wait_for_head(client: httpx.Client, timeout: float) -> tuple[int, int, int]:
     raise TimeoutError("the sample project has no reconstruction yet")
 
 
-async def one_client(base: str, headers: dict, routes: list[str], until: float, results: dict) -> None:
+Route = tuple[str, str, dict | None]  # method, path, JSON body
+
+
+async def one_client(base: str, headers: dict, routes: list[Route], until: float, results: dict) -> None:
     async with httpx.AsyncClient(base_url=base, headers=headers, timeout=60) as client:
         index = 0
         while time.monotonic() < until:
-            route = routes[index % len(routes)]
+            method, path, body = routes[index % len(routes)]
             index += 1
             started = time.perf_counter()
             try:
-                response = await client.get(route)
+                response = await client.request(method, path, json=body)
                 ok = response.status_code == 200
             except httpx.HTTPError:
                 ok = False
-            results[route]["ms"].append((time.perf_counter() - started) * 1000)
-            results[route]["errors"] += 0 if ok else 1
+            results[f"{method} {path}"]["ms"].append((time.perf_counter() - started) * 1000)
+            results[f"{method} {path}"]["errors"] += 0 if ok else 1
 
 
-async def load(base: str, headers: dict, routes: list[str], clients: int, seconds: float) -> dict:
-    results = {route: {"ms": [], "errors": 0} for route in routes}
+async def load(base: str, groups: list[tuple[dict, list[Route]]], seconds: float) -> dict:
+    """Each (headers, routes) group is one client cycling through its routes."""
+    results = {f"{m} {p}": {"ms": [], "errors": 0} for _, routes in groups for m, p, _ in routes}
     until = time.monotonic() + seconds
-    await asyncio.gather(*(one_client(base, headers, routes, until, results) for _ in range(clients)))
+    await asyncio.gather(*(one_client(base, headers, routes, until, results) for headers, routes in groups))
+    clients = len(groups)
     report = {}
     for route, data in results.items():
         report[route] = {"requests": len(data["ms"]), "errors": data["errors"],
@@ -83,6 +90,20 @@ async def load(base: str, headers: dict, routes: list[str], clients: int, second
             "throughput_rps": round(total / seconds, 1), "routes": report}
 
 
+def members(url: str, owner: dict, pid: int, count: int) -> list[dict]:
+    """`count` users (signed up once, reused), each a viewer of the project: their headers."""
+    headers = []
+    with httpx.Client(base_url=url, timeout=60) as client:
+        for n in range(count):
+            account = {"username": f"bench-member-{n}", "password": "bench-member-password"}
+            client.post("/api/v1/users", json=account)  # 409 when it exists from an earlier run
+            client.put(f"/api/v1/projects/{pid}/members/{account['username']}", json={"role": "viewer"},
+                       headers=owner).raise_for_status()
+            token = client.post("/api/v1/auth/token", data=account).json()["access_token"]
+            headers.append({"Authorization": f"Bearer {token}"})
+    return headers
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -90,6 +111,7 @@ def main() -> int:
     parser.add_argument("--username", default=None)
     parser.add_argument("--password", default=None)
     parser.add_argument("--clients", type=int, default=50)
+    parser.add_argument("--team", type=int, default=20, help="members polling presence and notifications")
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--port", type=int, default=8731)
     parser.add_argument("--data-dir", default=None, help="keep the served data here (reused next time)")
@@ -107,8 +129,13 @@ def main() -> int:
             headers = {"Authorization": f"Bearer {token['access_token']}"}
             with httpx.Client(base_url=args.url, headers=headers, timeout=60) as client:
                 pid, job_id, vid = wait_for_head(client, args.wait)
-            routes = [f"/api/v1/jobs/{job_id}", f"/api/v1/projects/{pid}/versions/{vid}/scene"]
-            report = asyncio.run(load(args.url, headers, routes, args.clients, args.seconds))
+            pollers = [("GET", f"/api/v1/jobs/{job_id}", None),
+                       ("GET", f"/api/v1/projects/{pid}/versions/{vid}/scene", None)]
+            team = [("POST", f"/api/v1/projects/{pid}/presence", {"version_id": vid}),
+                    ("GET", "/api/v1/notifications?unread=true", None)]
+            groups = [(headers, pollers)] * args.clients + [
+                (member, team) for member in members(args.url, headers, pid, args.team)]
+            report = asyncio.run(load(args.url, groups, args.seconds))
             print(json.dumps(report, indent=1))
             return 1 if report["errors"] else 0
         finally:

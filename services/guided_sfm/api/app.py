@@ -11,6 +11,7 @@ from fastapi.staticfiles import StaticFiles
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm.api import errors
+from guided_sfm.api.concurrency import ConcurrencyLimit, pool_capacity
 from guided_sfm.api.limits import BodyLimit
 from guided_sfm.api.routes import (
     activity,
@@ -49,6 +50,8 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     for module in (activity, comments, presence):  # team review (v1.1)
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(BodyLimit, upload_limit=settings.max_upload_bytes)
+    if (capacity := pool_capacity(app.state.sessions)) is not None:
+        app.add_middleware(ConcurrencyLimit, limit=capacity)
 
     @app.get(API_PREFIX + "/health", tags=["health"])
     def health() -> dict[str, str]:
