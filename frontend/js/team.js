@@ -8,7 +8,7 @@ const ROLES = ["viewer", "editor", "owner"];
 
 export class TeamPanel {
   constructor(root, ctx, signal) {
-    Object.assign(this, ctx, { root });
+    Object.assign(this, ctx, { root, signal });
     this.comments = [];
     this.editSet = null;
     this.el = (id) => root.querySelector(`#${id}`);
@@ -35,13 +35,15 @@ export class TeamPanel {
     }
     this.root.dataset.polls = String(Number(this.root.dataset.polls ?? 0) + 1);
     this.afterPoll?.();
-    this.timer = setTimeout(() => this.poll(), POLL_MS);
+    if (!this.signal.aborted) this.timer = setTimeout(() => this.poll(), POLL_MS);
   }
 
   // -- comments ----------------------------------------------------------------------------------
 
   async loadComments() {
-    this.comments = (await get(`${this.base}/comments`)) ?? [];
+    const comments = (await get(`${this.base}/comments`)) ?? [];
+    if (this.signal.aborted) return; // the page closed meanwhile: its elements are the next page's
+    this.comments = comments;
     const open = this.comments.filter((c) => !c.resolved);
     const count = this.el("unresolved-count");
     count.textContent = String(open.length);
@@ -170,7 +172,9 @@ export class TeamPanel {
       const sets = ((await get(`${this.base}/edits`)) ?? []).filter((e) => e.base_version_id === this.store.version.id);
       id = sets.sort((a, b) => b.id - a.id)[0]?.id ?? null;
     }
-    this.editSet = id === null ? null : await get(`${this.base}/edits/${id}`);
+    const editSet = id === null ? null : await get(`${this.base}/edits/${id}`);
+    if (this.signal.aborted) return;
+    this.editSet = editSet;
     this.renderReview();
   }
 
@@ -224,6 +228,7 @@ export class TeamPanel {
   async loadPresence() {
     const body = { version_id: this.store.version?.id ?? null, edit_set_id: this.editSetId() ?? this.editSet?.id ?? null };
     const people = (await post(`${this.base}/presence`, body)) ?? [];
+    if (this.signal.aborted) return;
     const line = this.el("presence");
     line.dataset.users = people.map((p) => p.username).join(",");
     line.textContent = "Here now: " + people.map((p) => (p.edit_set_id ? `${p.username} (edit set ${p.edit_set_id})`

@@ -1,7 +1,8 @@
 """Team review in two browsers (ana and ben) against a real `guided-sfm serve` with a worker: a
 comment pinned on a camera mentions ben, who sees the notification and the pin within one polling
-period and replies; ana submits, ben approves, ana applies (the owner requires approval); both see
-the activity and each other's presence; a comment holding markup is shown as text."""
+period and replies; ana submits, ben approves, ana looks at it in 3D (points and frusta, checked on
+pixels; WebGL through SwiftShader) and applies (the owner requires approval); both see the
+activity and each other's presence; a comment holding markup is shown as text."""
 
 from __future__ import annotations
 
@@ -13,15 +14,32 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
+import PIL.Image
 import pytest
 
-from tests.e2e.conftest import ARTIFACTS, ConsoleLog, Server, free_port, stop
+from tests.e2e.conftest import ARTIFACTS, CHROMIUM, ConsoleLog, Server, free_port, stop
 from tests.factories import PASSWORD, workspace_zip
 
 pytestmark = pytest.mark.browser
 POLL_S = 10  # the editor's polling period (frontend/js/team.js POLL_MS)
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "img"
 MARKUP = "<b>bold?</b><script>window.pwned = 1</script>"
+
+
+# WebGL without a GPU: SwiftShader, which headless Chromium only enables on request
+GL_ARGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+           "--disable-background-networking", "--disable-component-update", "--no-first-run"]
+FRUSTUM_RGB, MOVED_RGB, BACKGROUND_RGB = (0x2B, 0x6C, 0xB0), (0xDD, 0x6B, 0x20), (0xFB, 0xFC, 0xFD)
+
+
+@pytest.fixture(scope="module")
+def gl_browser() -> Iterator[object]:
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), args=GL_ARGS)
+        yield chromium
+        chromium.close()
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +130,8 @@ def pin_pixel(page, image_id: int) -> tuple[int, int, int]:
     }""", image_id))
 
 
-def test_two_people_comment_review_and_apply(browser, team_server):
+def test_two_people_comment_review_and_apply(gl_browser, team_server):
+    browser = gl_browser
     server, project = team_server
     pid = project["pid"]
     ana, ana_log = open_as(browser, server, "ana", pid)
@@ -177,6 +196,7 @@ def review_and_apply(ana, ben, server: Server, pid: int) -> None:
     ana.wait_for_selector("#review-box[data-state=approved]", timeout=(POLL_S + 3) * 1000)
     assert "ben approved" in ana.inner_text("#review-list")
     shot(ana, "team-ana-approved")
+    look_in_3d(ana)
     head = server.get(f"/projects/{pid}")["head_version_id"]
     ana.click("#apply-button")
     ana.wait_for_function("h => !(document.body.dataset.ready || '').endsWith('/' + h)", arg=str(head),
@@ -187,9 +207,35 @@ def review_and_apply(ana, ben, server: Server, pid: int) -> None:
 def both_see_activity_and_presence(ana, ben) -> None:
     for page in (ana, ben):
         page.evaluate("document.querySelector('#activity-panel').open = true")
-        page.wait_for_selector("#activity-list li[data-action=job_end]", timeout=(POLL_S + 3) * 1000)
+        page.wait_for_selector("#activity-list li[data-action=apply]", timeout=(POLL_S + 3) * 1000)
         actions = page.eval_on_selector_all("#activity-list li", "all => all.map((i) => i.dataset.action)")
         assert {"comment", "edit_save", "submit", "review", "apply", "job_end"} <= set(actions), actions
         page.wait_for_function("(document.querySelector('#presence').dataset.users || '') === 'ana,ben'",
                                timeout=(POLL_S + 3) * 1000)
     shot(ana, "team-ana-activity")
+
+
+def near(pixel, rgb, tolerance=40) -> bool:
+    return sum(abs(a - b) for a, b in zip(pixel[:3], rgb, strict=True)) <= tolerance
+
+
+def look_in_3d(ana) -> None:
+    """The 3D view beside the top-down one: every registered camera's frustum, the points in their
+    colours and the moved camera's frustum highlighted, on the canvas's pixels."""
+    ana.click("#show-3d")
+    ana.wait_for_function("Number(document.querySelector('#scene3d').dataset.frames || 0) > 0")
+    assert int(ana.get_attribute("#scene3d", "data-frusta")) == 12
+    assert int(ana.get_attribute("#scene3d", "data-points")) > 100
+    moved = ana.get_attribute("#scene3d", "data-moved")
+    assert moved and moved == ana.get_attribute("#scene", "data-moved")
+    path = ARTIFACTS / "team-3d.png"
+    ana.locator("#scene3d").screenshot(path=path)
+    pixels = list(PIL.Image.open(path).convert("RGB").getdata())
+    frustum = sum(near(p, FRUSTUM_RGB) for p in pixels)
+    highlighted = sum(near(p, MOVED_RGB) for p in pixels)
+    lines = (FRUSTUM_RGB, MOVED_RGB, BACKGROUND_RGB)
+    coloured = sum(not any(near(p, rgb, 60) for rgb in lines) for p in pixels)  # the points' own colours
+    print(f"3D view: {frustum} frustum, {highlighted} moved-frustum and {coloured} point pixels")
+    assert frustum > 200 and highlighted > 20 and coloured > 100, (frustum, highlighted, coloured)
+    shot(ana, "team-ana-3d")
+    ana.click("#show-3d")
