@@ -1,13 +1,19 @@
-"""Load benchmark of the REST API: N concurrent clients polling a job and reading a version's scene,
-beside M team members (each signed up and made a viewer) polling presence and their notifications
-as the editor does.
+"""Load benchmark of the REST API: N concurrent clients, half polling a job's status and half
+reading a version's scene, each pacing itself to one request per --pace seconds (50 clients at
+0.5 s offer 100 requests/s), then the same clients with no pause (throughput); beside them --team
+members (signed up and made viewers) polling presence and their unread notifications as the
+editor does (one request per --team-pace seconds each); and, with --login-flood N, how long
+`GET /projects` takes while N logins with wrong passwords run at once.
 
     python benchmarks/bench_api.py                       # starts `guided-sfm serve --sample` in a temp dir
     python benchmarks/bench_api.py --data-dir /tmp/bench     # the same, kept for a quicker rerun
     python benchmarks/bench_api.py --url http://127.0.0.1:8000 --username demo --password ...
+    GUIDED_SFM_DATABASE_URL=postgresql+psycopg://... GUIDED_SFM_BROKER_URL=redis://... \
+        python benchmarks/bench_api.py                   # the served stack on Postgres + Redis
 
-Prints one JSON document: requests, errors, throughput (req/s), p50/p99 latency (ms) per route.
-Without --url it waits for the sample's reconstruction (52 images), then measures on loopback.
+Prints one JSON document: per phase, requests, errors, throughput (req/s), p50/p99 latency (ms) per
+route, and the machine's load average beside them. Without --url it waits for the sample's
+reconstruction, then measures on loopback.
 """
 
 from __future__ import annotations
@@ -54,10 +60,28 @@ def wait_for_head(client: httpx.Client, timeout: float) -> tuple[int, int, int]:
     raise TimeoutError("the sample project has no reconstruction yet")
 
 
-Route = tuple[str, str, dict | None]  # method, path, JSON body
+async def one_client(base: str, headers: dict, route: str, until: float, pace: float, results: dict) -> None:
+    async with httpx.AsyncClient(base_url=base, headers=headers, timeout=60) as client:
+        while time.monotonic() < until:
+            started = time.perf_counter()
+            try:
+                response = await client.get(route, headers={"Accept-Encoding": "gzip"})
+                ok = response.status_code == 200
+            except httpx.HTTPError:
+                ok = False
+            elapsed = time.perf_counter() - started
+            results[route]["ms"].append(elapsed * 1000)
+            results[route]["errors"] += 0 if ok else 1
+            if pace > elapsed:
+                await asyncio.sleep(pace - elapsed)
 
 
-async def one_client(base: str, headers: dict, routes: list[Route], until: float, results: dict) -> None:
+TeamRoute = tuple[str, str, dict | None]  # method, path, JSON body
+
+
+async def team_client(base: str, headers: dict, routes: list[TeamRoute], until: float, pace: float,
+                      results: dict) -> None:
+    """One member's editor: presence, then notifications, then presence again, ..."""
     async with httpx.AsyncClient(base_url=base, headers=headers, timeout=60) as client:
         index = 0
         while time.monotonic() < until:
@@ -65,38 +89,67 @@ async def one_client(base: str, headers: dict, routes: list[Route], until: float
             index += 1
             started = time.perf_counter()
             try:
-                response = await client.request(method, path, json=body)
-                ok = response.status_code == 200
+                ok = (await client.request(method, path, json=body)).status_code == 200
             except httpx.HTTPError:
                 ok = False
-            results[f"{method} {path}"]["ms"].append((time.perf_counter() - started) * 1000)
+            elapsed = time.perf_counter() - started
+            results[f"{method} {path}"]["ms"].append(elapsed * 1000)
             results[f"{method} {path}"]["errors"] += 0 if ok else 1
+            if pace > elapsed:
+                await asyncio.sleep(pace - elapsed)
 
 
-async def load(base: str, groups: list[tuple[dict, list[Route]]], seconds: float) -> dict:
-    """Each (headers, routes) group is one client cycling through its routes."""
-    results = {f"{m} {p}": {"ms": [], "errors": 0} for _, routes in groups for m, p, _ in routes}
+async def load(base: str, headers: dict, routes: list[str], clients: int, seconds: float,
+               pace: float, team: tuple[list[dict], list[TeamRoute], float] = ([], [], 0.0)) -> dict:
+    """Client i reads routes[i % len(routes)] only: half the clients on each route; each member of
+    `team` (their headers, the routes they cycle through, their pace) polls beside them."""
+    members, team_routes, team_pace = team
+    results = {route: {"ms": [], "errors": 0} for route in routes}
+    results.update({f"{m} {p}": {"ms": [], "errors": 0} for m, p, _ in team_routes if members})
     until = time.monotonic() + seconds
-    await asyncio.gather(*(one_client(base, headers, routes, until, results) for headers, routes in groups))
-    clients = len(groups)
+    await asyncio.gather(*(one_client(base, headers, routes[i % len(routes)], until, pace, results)
+                           for i in range(clients)),
+                         *(team_client(base, member, team_routes, until, team_pace, results)
+                           for member in members))
     report = {}
     for route, data in results.items():
         report[route] = {"requests": len(data["ms"]), "errors": data["errors"],
                          "p50_ms": round(percentile(data["ms"], 0.5), 1),
                          "p99_ms": round(percentile(data["ms"], 0.99), 1)}
     total = sum(r["requests"] for r in report.values())
-    return {"clients": clients, "seconds": seconds, "requests": total,
+    return {"clients": clients, "team_members": len(members), "seconds": seconds, "pace_s": pace,
+            "requests": total,
             "errors": sum(r["errors"] for r in report.values()),
-            "throughput_rps": round(total / seconds, 1), "routes": report}
+            "throughput_rps": round(total / seconds, 1), "routes": report,
+            "load_average": [round(x, 2) for x in os.getloadavg()]}
 
 
-def members(url: str, owner: dict, pid: int, count: int) -> list[dict]:
-    """`count` users (signed up once, reused), each a viewer of the project: their headers."""
+async def login_flood(base: str, headers: dict, logins: int) -> dict:
+    """`GET /projects` latency while `logins` wrong-password logins run at once (throttle and the
+    bounded Argon2 slots keep it short; 429s are expected)."""
+    async with httpx.AsyncClient(base_url=base, timeout=120) as client:
+        async def bad_login(i: int) -> int:
+            form = {"username": f"nobody{i % 5}", "password": "wrong"}
+            return (await client.post("/api/v1/auth/token", data=form)).status_code
+
+        async def projects() -> float:
+            await asyncio.sleep(0.2)  # once the flood is under way
+            started = time.perf_counter()
+            await client.get("/api/v1/projects", headers=headers)
+            return (time.perf_counter() - started) * 1000
+
+        *codes, ms = await asyncio.gather(*(bad_login(i) for i in range(logins)), projects())
+    return {"logins": logins, "status_counts": {str(c): codes.count(c) for c in sorted(set(codes))},
+            "get_projects_ms": round(ms, 1), "load_average": [round(x, 2) for x in os.getloadavg()]}
+
+
+def sign_up_members(url: str, owner: dict, pid: int, count: int) -> list[dict]:
+    """`count` users (signed up once, reused by a rerun), each a viewer of the project: their headers."""
     headers = []
     with httpx.Client(base_url=url, timeout=60) as client:
         for n in range(count):
             account = {"username": f"bench-member-{n}", "password": "bench-member-password"}
-            client.post("/api/v1/users", json=account)  # 409 when it exists from an earlier run
+            client.post("/api/v1/users", json=account)  # 409 when an earlier run made it
             client.put(f"/api/v1/projects/{pid}/members/{account['username']}", json={"role": "viewer"},
                        headers=owner).raise_for_status()
             token = client.post("/api/v1/auth/token", data=account).json()["access_token"]
@@ -111,8 +164,12 @@ def main() -> int:
     parser.add_argument("--username", default=None)
     parser.add_argument("--password", default=None)
     parser.add_argument("--clients", type=int, default=50)
-    parser.add_argument("--team", type=int, default=20, help="members polling presence and notifications")
     parser.add_argument("--seconds", type=float, default=30.0)
+    parser.add_argument("--pace", type=float, default=0.5, help="seconds per request per client (paced)")
+    parser.add_argument("--team", type=int, default=20, help="members polling presence and notifications")
+    parser.add_argument("--team-pace", type=float, default=5.0,
+                        help="seconds per request per member (the editor: both every 10 s)")
+    parser.add_argument("--login-flood", type=int, default=40, help="parallel wrong logins (0: skip)")
     parser.add_argument("--port", type=int, default=8731)
     parser.add_argument("--data-dir", default=None, help="keep the served data here (reused next time)")
     parser.add_argument("--wait", type=float, default=3600.0, help="how long to wait for the sample")
@@ -129,15 +186,18 @@ def main() -> int:
             headers = {"Authorization": f"Bearer {token['access_token']}"}
             with httpx.Client(base_url=args.url, headers=headers, timeout=60) as client:
                 pid, job_id, vid = wait_for_head(client, args.wait)
-            pollers = [("GET", f"/api/v1/jobs/{job_id}", None),
-                       ("GET", f"/api/v1/projects/{pid}/versions/{vid}/scene", None)]
-            team = [("POST", f"/api/v1/projects/{pid}/presence", {"version_id": vid}),
-                    ("GET", "/api/v1/notifications?unread=true", None)]
-            groups = [(headers, pollers)] * args.clients + [
-                (member, team) for member in members(args.url, headers, pid, args.team)]
-            report = asyncio.run(load(args.url, groups, args.seconds))
+            routes = [f"/api/v1/jobs/{job_id}", f"/api/v1/projects/{pid}/versions/{vid}/scene"]
+            members = sign_up_members(args.url, headers, pid, args.team)
+            team_routes = [("POST", f"/api/v1/projects/{pid}/presence", {"version_id": vid}),
+                           ("GET", "/api/v1/notifications?unread=true", None)]
+            team = (members, team_routes, args.team_pace)
+            report = {phase: asyncio.run(load(args.url, headers, routes, args.clients, args.seconds, pace,
+                                              team))
+                      for phase, pace in (("paced", args.pace), ("unpaced", 0.0))}
+            if args.login_flood:
+                report["login_flood"] = asyncio.run(login_flood(args.url, headers, args.login_flood))
             print(json.dumps(report, indent=1))
-            return 1 if report["errors"] else 0
+            return 1 if report["paced"]["errors"] or report["unpaced"]["errors"] else 0
         finally:
             if server is not None:
                 os.killpg(server.pid, signal.SIGTERM)

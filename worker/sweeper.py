@@ -5,6 +5,8 @@ beat messages would queue up behind a long job (concurrency 1) and bury the next
 from __future__ import annotations
 
 import logging
+import os
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -12,10 +14,12 @@ from collections.abc import Callable
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm import jobs
+from guided_sfm.actions import webhooks
 from guided_sfm.actions.reconcile import reconcile_store
 from guided_sfm.actions.runner import log_end
 from guided_sfm.db.session import make_sessionmaker, session_scope
 from guided_sfm.settings import Settings
+from worker.presence import touch_presence
 
 log = logging.getLogger(__name__)
 
@@ -28,6 +32,9 @@ def sweep(sessions: sessionmaker[Session], settings: Settings, submit: Callable[
         submit(job_id)
     for job_id in failed:
         log_end(sessions, job_id)
+    if failed:
+        with session_scope(sessions) as session:
+            webhooks.jobs_failed_by_sweep(session, failed)
     if requeued or failed or resend:
         log.warning("sweep: jobs whose worker stopped: requeued %s, failed %s; resent lost messages %s",
                     requeued, failed, resend)
@@ -44,6 +51,7 @@ class Sweeper(threading.Thread):
         self.settings, self.submit = settings, submit
         self.stopped = threading.Event()
         self.failures, self.reconciled_at = 0, float("-inf")
+        self.name_on_host = f"{socket.gethostname()}-{os.getpid()}"
 
     def run(self) -> None:
         sessions = make_sessionmaker(self.settings)
@@ -61,6 +69,8 @@ class Sweeper(threading.Thread):
             sessions.kw["bind"].dispose()
 
     def round(self, sessions: sessionmaker[Session]) -> None:
+        if self.settings.broker_url.startswith("filesystem"):
+            touch_presence(self.settings, self.name_on_host)
         sweep(sessions, self.settings, self.submit)
         if time.monotonic() - self.reconciled_at >= self.settings.orphan_grace_seconds:
             reconcile_store(sessions, self.settings)

@@ -2,7 +2,7 @@
 // what it shows as read.
 import { get, post, session } from "./api.js";
 
-const POLL_MS = 10000; // as the team panel's
+const INBOX_POLL_MS = 10000; // as often as the team panel looks for comments
 
 export class Inbox {
   constructor(button, panel) {
@@ -33,7 +33,7 @@ export class Inbox {
       this.button.dataset.unread = String(unread.length);
       this.button.setAttribute("aria-label", `Notifications: ${unread.length} unread`);
     } catch { /* signed out or the server is away: the next round tries again */ }
-    this.timer = session.token ? setTimeout(() => this.poll(), POLL_MS) : 0;
+    this.timer = session.token ? setTimeout(() => this.poll(), INBOX_POLL_MS) : 0;
   }
 
   async toggle() {

@@ -1,5 +1,7 @@
 """Service errors beyond the core's: requests the state of the service refuses (mapped once in api/errors)."""
 
+import re
+
 from guided_sfm.core.errors import DomainError
 
 
@@ -29,3 +31,19 @@ class BadUpload(DomainError):
 
 class Unauthorized(DomainError):
     """No valid credentials."""
+
+
+class TooManyRequests(DomainError):
+    """Too many attempts from one client or on one account; retry after `retry_after` seconds."""
+
+    def __init__(self, message: str, retry_after: int) -> None:
+        super().__init__(message)
+        self.retry_after = retry_after
+
+
+_SERVER_PATH = re.compile(r"(?<![\w.:/~-])/(?!api/)(?:[^\s/'\"():,]+/)+([^\s/'\"():,]*)")
+
+
+def without_paths(text: str) -> str:
+    """The text with server file paths cut to their last part: errors leave the server without them."""
+    return _SERVER_PATH.sub(lambda found: found.group(1) or "(a server path)", text)

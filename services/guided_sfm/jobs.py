@@ -12,7 +12,7 @@ from collections.abc import Callable
 from datetime import timedelta
 from typing import Any
 
-from sqlalchemy import select, update
+from sqlalchemy import case, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
@@ -49,6 +49,29 @@ def claim(session: Session, job_id: int) -> bool:
     )
     session.commit()
     return result.rowcount == 1
+
+
+# The queue's order: interactive applies (seconds) before reconstructions and imports (minutes to
+# hours), then first come first served; one active job per project keeps projects from crowding out.
+QUEUE_ORDER = (case((Job.kind == "apply", 0), else_=1), Job.created_at, Job.id)
+
+
+def queued_in_order(session: Session) -> list[int]:
+    """Every queued job's id, next to run first."""
+    return list(session.scalars(select(Job.id).where(Job.state == "queued").order_by(*QUEUE_ORDER)))
+
+
+def claim_next(session: Session) -> int | None:
+    """Claim the first queued job in the queue's order that no other worker took first; its id."""
+    for job_id in queued_in_order(session):
+        if claim(session, job_id):
+            return job_id
+    return None
+
+
+def queue_positions(session: Session) -> dict[int, int]:
+    """{job id: position} of the queued jobs (1 = next to run)."""
+    return {job_id: index for index, job_id in enumerate(queued_in_order(session), start=1)}
 
 
 def finish(session: Session, job_id: int, state: str, *, message: str = "", error: str | None = None,

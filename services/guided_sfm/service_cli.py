@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import logging
 import os
 import signal
@@ -18,12 +19,12 @@ import urllib.request
 from guided_sfm.settings import Settings
 
 log = logging.getLogger("guided_sfm.serve")
-RESTART_BACKOFF = (1, 2, 5, 10, 30)  # seconds before restarting a worker that keeps dying
+RESTART_BACKOFF = (1, 2, 5, 10, 30)  # seconds before restarting a process that keeps dying
 STOP_GRACE = 15.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    serve = subparsers.add_parser("serve", help="migrations, the API and one worker (embedded default)")
+    serve = subparsers.add_parser("serve", help="migrations, the API and one worker, both supervised")
     serve.add_argument("--host", default="127.0.0.1")
     serve.add_argument("--port", type=int, default=8000)
     serve.add_argument("--data-dir", default=None, help="default: $GUIDED_SFM_DATA_DIR or ./data")
@@ -44,13 +45,16 @@ def cmd_api(args: argparse.Namespace) -> None:
     from guided_sfm.api.app import create_app
     from guided_sfm.db.migrate import upgrade
     from worker.celery_app import make_celery, submitter
+    from worker.health import readiness
 
     settings = Settings.from_env()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     upgrade(settings.database_url)
-    app = create_app(settings, submitter(make_celery(settings)))
+    celery = make_celery(settings)
+    app = create_app(settings, submitter(celery), readiness=functools.partial(readiness, settings, celery))
     _reconcile(app.state.sessions, settings)
-    uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+    # proxy_headers off: the client address is ours to judge (GUIDED_SFM_TRUSTED_PROXIES, api/throttle.py)
+    uvicorn.run(app, host=args.host, port=args.port, log_level="info", proxy_headers=False)
 
 
 def _reconcile(sessions, settings: Settings) -> None:
@@ -110,23 +114,34 @@ def _sample(settings: Settings) -> dict:
 
 
 class Supervisor:
-    """Runs the API and one worker as child processes; restarts the worker when it dies."""
+    """Runs the API and one worker as child processes and restarts either when it dies (with a
+    growing delay when it keeps dying); never starts one again once asked to stop."""
 
     def __init__(self, env: dict[str, str], host: str, port: int) -> None:
         self.env, self.host, self.port = env, host, port
-        self.api: subprocess.Popen | None = None
-        self.worker: subprocess.Popen | None = None
+        self.commands = {"api": ("api", "--host", host, "--port", str(port)), "worker": ("worker",)}
+        self.processes: dict[str, subprocess.Popen] = {}
+        self.restarts = {"api": 0, "worker": 0}
         self.stopping = False
-        self.restarts = 0
 
-    def _spawn(self, *command: str) -> subprocess.Popen:
+    @property
+    def api(self) -> subprocess.Popen | None:
+        return self.processes.get("api")
+
+    @property
+    def worker(self) -> subprocess.Popen | None:
+        return self.processes.get("worker")
+
+    def _spawn(self, role: str) -> subprocess.Popen:
         # Its own session: Ctrl-C reaches only us, and stopping a worker stops its pool and beat too.
-        return subprocess.Popen([sys.executable, "-m", "guided_sfm.cli", *command], env=self.env,
-                                stdout=sys.stderr, start_new_session=True)
+        process = subprocess.Popen([sys.executable, "-m", "guided_sfm.cli", *self.commands[role]],
+                                   env=self.env, stdout=sys.stderr, start_new_session=True)
+        print(f"{role} started (pid {process.pid})", file=sys.stderr, flush=True)
+        return process
 
     def start(self) -> None:
-        self.api = self._spawn("api", "--host", self.host, "--port", str(self.port))
-        self.worker = self._spawn("worker")
+        for role in self.commands:
+            self.processes[role] = self._spawn(role)
 
     def request_stop(self, *_args: object) -> None:
         self.stopping = True
@@ -145,22 +160,27 @@ class Supervisor:
     def watch(self) -> None:
         while not self.stopping:
             time.sleep(0.5)
-            if self.api.poll() is not None:
-                log.error("the API process exited with %s; stopping", self.api.returncode)
-                sys.exit(self.api.returncode or 1)
-            if self.worker.poll() is not None:
-                delay = RESTART_BACKOFF[min(self.restarts, len(RESTART_BACKOFF) - 1)]
-                print(f"worker exited with {self.worker.returncode}; restarting in {delay} s",
-                      file=sys.stderr, flush=True)
-                _stop_group(self.worker)  # its pool or beat may have outlived it
-                time.sleep(delay)
-                self.restarts += 1
-                self.worker = self._spawn("worker")
+            for role, process in list(self.processes.items()):
+                if not self.stopping and process.poll() is not None:
+                    self._restart(role, process)
+
+    def _restart(self, role: str, process: subprocess.Popen) -> None:
+        delay = RESTART_BACKOFF[min(self.restarts[role], len(RESTART_BACKOFF) - 1)]
+        print(f"{role} exited with {process.returncode}; restarting in {delay} s",
+              file=sys.stderr, flush=True)
+        _stop_group(process)  # its pool or beat may have outlived it
+        deadline = time.monotonic() + delay
+        while time.monotonic() < deadline:
+            if self.stopping:
+                return  # asked to stop meanwhile: nothing is started again
+            time.sleep(0.1)
+        self.restarts[role] += 1
+        self.processes[role] = self._spawn(role)
 
     def stop(self) -> None:
-        for process in (self.worker, self.api):
-            if process is not None:
-                _stop_group(process)
+        for role in ("worker", "api"):
+            if role in self.processes:
+                _stop_group(self.processes[role])
 
 
 def _stop_group(process: subprocess.Popen) -> None:

@@ -38,6 +38,10 @@ class Settings:
     stale_seconds: float = 60.0  # a running job silent this long lost its worker
     requeue_seconds: float = 60.0  # a queued job untouched this long lost its message
     max_attempts: int = 2  # a job whose worker died runs again until it has started this often
+    login_attempts_per_user: int = 10  # failed logins per username per window, then 429
+    login_attempts_per_address: int = 30  # logins and sign-ups per client address per window
+    login_window_seconds: float = 300.0
+    trusted_proxies: str = ""  # comma-separated peers whose X-Forwarded-For is believed
     webhook_allow_private: bool = False  # webhooks to loopback/private addresses (tests, intranets)
     webhook_retry_seconds: float = 10.0  # first retry after a failed delivery; doubles each time
     webhook_attempts: int = 6  # deliveries given up after this many tries
@@ -59,6 +63,7 @@ class Settings:
             "open_signup": _bool(env, "OPEN_SIGNUP", True),
             "webhook_allow_private": _bool(env, "WEBHOOK_ALLOW_PRIVATE", False),
             "secret_key": env.get(PREFIX + "SECRET_KEY") or None,
+            "trusted_proxies": env.get(PREFIX + "TRUSTED_PROXIES") or "",
             **{name: _number(env, name.upper(), default) for name, default in _numeric_defaults()},
         }
         values.update(overrides)
@@ -92,6 +97,10 @@ class Settings:
         """Folder of the filesystem broker: the URL's path if it has one, else under the data dir."""
         path = urlsplit(self.broker_url).path
         return Path(path) if path not in ("", "/") else self.data_dir / "broker"
+
+    @property
+    def trusted_proxy_list(self) -> list[str]:
+        return [part.strip() for part in self.trusted_proxies.split(",") if part.strip()]
 
     @property
     def max_upload_bytes(self) -> int:

@@ -10,12 +10,6 @@ def api(s, suffix=""):
     return f"/api/v1/projects/{s.pid}{suffix}"
 
 
-def cut_one_pair(client, s) -> dict:
-    """An edit set body that deletes one verified pair (an empty one has nothing to apply)."""
-    pair = client.get(f"/api/v1/projects/{s.pid}/versions/{s.vid}/pairs", headers=s.owner).json()[0]
-    return {"base_version_id": s.vid, "delete_pairs": [[pair["image_id1"], pair["image_id2"]]]}
-
-
 def entries(client, s, headers=None, **params):
     response = client.get(api(s, "/activity"), params={"limit": 200, **params}, headers=headers or s.owner)
     assert response.status_code == 200, response.text
@@ -25,6 +19,12 @@ def entries(client, s, headers=None, **params):
 def ok(response, status=200):
     assert response.status_code == status, response.text
     return response.json() if response.content else None
+
+
+def nonempty(client, s) -> dict:
+    """An edit set that deletes one pair (an empty one has nothing to apply: 422)."""
+    pair = client.get(api(s, f"/versions/{s.vid}/pairs"), headers=s.owner).json()[0]
+    return {"base_version_id": s.vid, "delete_pairs": [[pair["image_id1"], pair["image_id2"]]]}
 
 
 def test_every_change_is_logged_with_its_user(client, reconstructed, sessions, settings, tiny_reconstruction,
@@ -37,8 +37,8 @@ def test_every_change_is_logged_with_its_user(client, reconstructed, sessions, s
     job = ok(client.post(api(s, "/reconstruct"), json={}, headers=s.owner), 202)
     ok(client.post(f"/api/v1/jobs/{job['id']}/cancel", headers=s.owner))
     ok(client.patch(api(s), json={"require_approval": True}, headers=s.owner))
-    eid = ok(client.post(api(s, "/edits"), json=cut_one_pair(client, s), headers=ben), 201)["id"]
-    ok(client.put(api(s, f"/edits/{eid}"), json={**cut_one_pair(client, s), "flags": []},
+    eid = ok(client.post(api(s, "/edits"), json=nonempty(client, s), headers=ben), 201)["id"]
+    ok(client.put(api(s, f"/edits/{eid}"), json={**nonempty(client, s), "flags": []},
                   headers={**ben, "If-Match": "1"}))
     ok(client.post(api(s, f"/edits/{eid}/submit"), headers=ben))
     ok(client.post(api(s, f"/edits/{eid}/reviews"), json={"verdict": "approve"}, headers=s.owner), 201)
@@ -83,7 +83,7 @@ def test_a_change_through_an_access_token_names_the_token(client, reconstructed,
     body = {"name": "nightly-ci", "scope": "write"}
     made = ok(client.post("/api/v1/tokens", json=body, headers=s.owner), 201)
     bot = {"Authorization": f"Bearer {made['token']}"}
-    eid = ok(client.post(api(s, "/edits"), json=cut_one_pair(client, s), headers=bot), 201)["id"]
+    eid = ok(client.post(api(s, "/edits"), json=nonempty(client, s), headers=bot), 201)["id"]
     job = ok(client.post(api(s, f"/edits/{eid}/apply"), json={"remap": False}, headers=bot), 202)
     assert runner.run_job(sessions, settings, job["id"]) == "succeeded"
     ok(client.patch(api(s), json={"description": "by hand"}, headers=s.owner))

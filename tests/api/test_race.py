@@ -90,11 +90,7 @@ def race(base: str, owner: dict, url: str, vid: int, revision: int) -> list[tupl
     return results
 
 
-def test_same_revision_at_once_one_200_the_rest_409(live, committed_database, request):
-    if committed_database.startswith("sqlite"):
-        request.applymarker(pytest.mark.xfail(strict=False, reason=(
-            "issue 17: SQLite may answer 500 'database is locked' to concurrent writers; "
-            "the Postgres pass must hold")))
+def test_same_revision_at_once_one_200_the_rest_409(live, committed_database):
     base, owner, url, vid = live
     started = time.monotonic()
     for round_number in range(ROUNDS):

@@ -5,7 +5,6 @@ import pytest
 
 from guided_sfm.actions import runner
 from guided_sfm.db.models import EditSetRow, Job, Review
-from tests.api.test_activity import cut_one_pair
 from tests.factories import add_member, signup
 
 
@@ -20,7 +19,9 @@ def team(client, reconstructed):
     for name, role in (("ana", "editor"), ("ben", "editor"), ("vic", "viewer")):
         people[name] = signup(client, name)
         add_member(client, s.owner, s.pid, name, role)
-    eid = client.post(api(s, "/edits"), json=cut_one_pair(client, s), headers=people["ana"]).json()["id"]
+    pair = client.get(api(s, f"/versions/{s.vid}/pairs"), headers=s.owner).json()[0]
+    body = {"base_version_id": s.vid, "delete_pairs": [[pair["image_id1"], pair["image_id2"]]]}
+    eid = client.post(api(s, "/edits"), json=body, headers=people["ana"]).json()["id"]
     return s, people, eid
 
 
@@ -80,7 +81,7 @@ def test_self_review_and_a_viewers_review_are_403(client, team, session):
     assert viewer.status_code == 403 and "viewer" in viewer.json()["detail"]
     assert session.query(Review).count() == 0
     # whoever saved the current revision wrote it too
-    client.put(api(s, f"/edits/{eid}"), json=cut_one_pair(client, s),
+    client.put(api(s, f"/edits/{eid}"), json={"base_version_id": s.vid},
                headers={**people["ben"], "If-Match": "1"})
     assert review(client, s, people["ben"], eid).status_code == 403
     assert review(client, s, s.owner, eid).status_code == 201
@@ -91,8 +92,8 @@ def test_a_new_revision_puts_an_approval_back_to_draft(client, team):
     client.patch(api(s), json={"require_approval": True}, headers=s.owner)
     client.post(api(s, f"/edits/{eid}/submit"), headers=people["ana"])
     assert review(client, s, people["ben"], eid).status_code == 201
-    saved = client.put(api(s, f"/edits/{eid}"), json={**cut_one_pair(client, s), "flags": []},
-                       headers={**people["ana"], "If-Match": "1"})
+    kept = {"base_version_id": s.vid, "delete_pairs": state(client, s, eid)["delete_pairs"], "flags": []}
+    saved = client.put(api(s, f"/edits/{eid}"), json=kept, headers={**people["ana"], "If-Match": "1"})
     assert saved.status_code == 200 and saved.json()["review_state"] == "draft"
     gated = client.post(api(s, f"/edits/{eid}/apply"), json={"remap": False}, headers=people["ana"])
     assert gated.status_code == 409

@@ -2,6 +2,8 @@
 
 from datetime import timedelta
 
+import pytest
+
 from guided_sfm.actions import tokens
 from guided_sfm.db.models import AccessToken, utcnow
 from tests.factories import PASSWORD, add_member, make_project, signup
@@ -125,3 +127,26 @@ def test_password_change_ends_sessions_but_not_tokens(client):
     new = client.post("/api/v1/auth/token", data={"username": "ann", "password": "another good one"})
     fresh = bearer(new.json()["access_token"])
     assert client.get("/api/v1/projects", headers=fresh).status_code == 200
+
+
+def test_of_two_password_changes_at_once_one_wins(client, session):
+    """The hash is checked outside any transaction; the write only lands on the hash it checked."""
+    from sqlalchemy import update
+
+    from guided_sfm.api import security
+    from guided_sfm.db.models import User
+    from guided_sfm.errors import Conflict
+
+    signup(client, "ann")
+    user = session.query(User).filter_by(username="ann").one()
+
+    def verify_while_another_changes_it(old, stored):
+        session.execute(update(User).where(User.id == user.id).values(password_hash="changed by the other"))
+        session.commit()
+        return security.verify_password(old, stored)
+
+    with pytest.raises(Conflict):
+        tokens.change_password(session, user, PASSWORD, "another good one", verify_while_another_changes_it,
+                               security.hash_password)
+    session.expire_all()
+    assert session.get(User, user.id).password_hash == "changed by the other"

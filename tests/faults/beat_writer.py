@@ -16,6 +16,7 @@ def main(database_url: str, job_id: int, seconds: float) -> int:
     report, deadline, writes = jobs.Reporter(sessions, job_id, interval=0.0), time.monotonic() + seconds, 0
     stop = []
     signal.signal(signal.SIGTERM, lambda *_: stop.append(True))
+    print("writing", flush=True)
     while time.monotonic() < deadline and not stop:
         with session_scope(sessions) as session:
             jobs.beat(session, job_id)

@@ -62,6 +62,7 @@ def test_save_race_and_writes_during_a_job(live_factory):
     beat = subprocess.Popen([sys.executable, "-m", "tests.faults.beat_writer", api.database_url,
                              str(job_id), "30"], stdout=subprocess.PIPE, text=True, env=api.env)
     try:
+        assert beat.stdout.readline().strip() == "writing"
         body = {"base_version_id": vid, "cameras": []}
         status, edit, _ = api.request("POST", f"/api/v1/projects/{pid}/edits", body, headers)
         assert status == 201, edit

@@ -1,10 +1,12 @@
 """run_job in-process against the real DB (savepoint-isolated): reconstruct, apply, import, failures."""
 
+import json
+
 import pytest
 
 from guided_sfm import jobs
 from guided_sfm.actions import runner
-from guided_sfm.db.models import Job, Project, Version, utcnow
+from guided_sfm.db.models import Job, Project, Version, Webhook, WebhookDelivery, utcnow
 from tests.factories import make_project, make_version, signup, workspace_zip
 
 
@@ -133,6 +135,7 @@ def test_sweeper_fails_silent_running_jobs_and_resends_lost_ones(client, headers
     from worker import sweeper
 
     headers, pid = headers_pid
+    session.add(Webhook(project_id=pid, url="http://a/", events=["job_finished"], secret="s" * 16))
     job_id = client.post(f"/api/v1/projects/{pid}/reconstruct", json={}, headers=headers).json()["id"]
     job = session.get(Job, job_id)
     job.enqueued_at = utcnow() - timedelta(minutes=5)
@@ -149,6 +152,9 @@ def test_sweeper_fails_silent_running_jobs_and_resends_lost_ones(client, headers
     session.expire_all()
     assert session.get(Job, job_id).state == "failed"
     assert "no heartbeat" in session.get(Job, job_id).error
+    told = [json.loads(row.body) for row in session.query(WebhookDelivery)]
+    assert [(t["event"], t["data"]["job_id"], t["data"]["state"]) for t in told] == [
+        ("job_finished", job_id, "failed")]
 
 
 class _Reusing:

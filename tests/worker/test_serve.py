@@ -1,11 +1,13 @@
 """`guided-sfm serve`: prints the URL once the API answers, restarts a dead worker, stops on SIGTERM."""
 
 import os
+import re
 import signal
 import socket
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -67,3 +69,43 @@ def test_serve_supervises_api_and_worker(tmp_path):
             serve.kill()
             serve.wait()
         serve.stdout.close()
+
+
+def _health(port: int, path: str = "/api/v1/health") -> int:
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}{path}", timeout=5) as response:
+            return response.status
+    except urllib.error.HTTPError as exc:
+        return exc.code
+    except OSError:
+        return 0
+
+
+def test_serve_restarts_a_dead_api_and_starts_nothing_once_stopping(tmp_path):
+    port = free_port()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("GUIDED_SFM_")}
+    env["GUIDED_SFM_SWEEP_SECONDS"] = "1"
+    log = open(tmp_path / "serve.log", "w")  # noqa: SIM115  (closed in finally)
+    serve = subprocess.Popen([sys.executable, "-m", "guided_sfm.cli", "serve", "--port", str(port),
+                              "--data-dir", str(tmp_path / "data")], env=env, stdout=subprocess.PIPE,
+                             stderr=log, text=True)
+    try:
+        assert serve.stdout.readline().strip() == f"URL: http://127.0.0.1:{port}/"
+        wait_for(lambda: _health(port, "/api/v1/health/ready") == 200, 60, "ready (worker seen)")
+        api = children(serve.pid)["api"]
+        os.killpg(api, signal.SIGKILL)
+        wait_for(lambda: (children(serve.pid).get("api") or api) != api, 30, "a restarted API")
+        wait_for(lambda: _health(port) == 200, 60, "the restarted API to answer")
+        worker = children(serve.pid)["worker"]
+        os.killpg(worker, signal.SIGKILL)
+        time.sleep(0.7)  # the supervisor has seen it and waits before restarting it
+        serve.send_signal(signal.SIGTERM)
+        assert serve.wait(timeout=60) == 0
+        started = re.findall(r"^(api|worker) started", (tmp_path / "serve.log").read_text(), re.M)
+        assert started.count("api") == 2 and started.count("worker") == 1, started
+    finally:
+        if serve.poll() is None:
+            serve.kill()
+            serve.wait()
+        serve.stdout.close()
+        log.close()

@@ -14,7 +14,7 @@ from guided_sfm.actions import lookup
 from guided_sfm.core.edits import edits_to_json, parse_edits
 from guided_sfm.core.errors import InvalidInput, UnknownImage
 from guided_sfm.db import queries
-from guided_sfm.db.models import EditSetRow, Job, Project, Version, utcnow
+from guided_sfm.db.models import MAX_ID, EditSetRow, Job, Project, Version, utcnow
 from guided_sfm.errors import Conflict, PreconditionRequired
 
 
@@ -48,10 +48,9 @@ def parse_if_match(header: str | None) -> int:
     if header is None or not header.strip():
         raise PreconditionRequired("send If-Match: <revision> (the ETag of the edit set you changed)")
     raw = header.strip().removeprefix("W/").strip('"')
-    try:
-        return int(raw)
-    except ValueError as exc:
-        raise Conflict(f"If-Match {header!r} is not a revision of this edit set") from exc
+    if not raw.isdigit() or int(raw) > MAX_ID:  # a revision is a SQL integer: larger cannot match
+        raise Conflict(f"If-Match {header[:40]!r} is not a revision of this edit set")
+    return int(raw)
 
 
 def replace(session: Session, project: Project, row: EditSetRow, body: dict[str, Any],

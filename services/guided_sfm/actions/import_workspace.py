@@ -26,18 +26,24 @@ REQUIRED = ("database.db", "sparse/0/")
 def queue(session: Session, store: ArtifactStore, submit: Callable[[int], None], project: Project,
           user_id: int, upload: BinaryIO, limit: int) -> Job:
     """Keep a checked workspace zip in the project and queue its import; 409 unless the project is
-    empty and idle (checked before the upload is written)."""
-    if not queries.is_empty(session, project.id):
-        raise Conflict(f"project {project.id} already has images or versions; import needs an empty project")
-    if queries.active_job(session, project.id) is not None:
-        raise Conflict(f"project {project.id} already has a queued or running job")
+    empty and idle (checked before the upload is written, and again where the job is queued)."""
+    _check_idle(session, project.id)
+    session.commit()  # copying a large zip takes long: hold no lock (SQLite's is the whole file)
     kept = _keep(store, project.id, upload, limit)
     try:
+        _check_idle(session, project.id)
         params = {"upload": str(kept.relative_to(store.root))}
         return jobs.queue(session, submit, project, "import", user_id, params, None)
     except BaseException:
         kept.unlink(missing_ok=True)
         raise
+
+
+def _check_idle(session: Session, project_id: int) -> None:
+    if not queries.is_empty(session, project_id):
+        raise Conflict(f"project {project_id} already has images or versions; import needs an empty project")
+    if queries.active_job(session, project_id) is not None:
+        raise Conflict(f"project {project_id} already has a queued or running job")
 
 
 def _keep(store: ArtifactStore, project_id: int, upload: BinaryIO, limit: int) -> Path:

@@ -22,6 +22,7 @@ from guided_sfm.core.sfm import CancelToken
 from guided_sfm.core.stage_clock import StageClock
 from guided_sfm.db.models import Image, Job
 from guided_sfm.db.session import session_scope
+from guided_sfm.errors import without_paths
 from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
@@ -93,10 +94,13 @@ def time_limit(sessions: sessionmaker[Session], settings: Settings, project_id: 
 
 
 def run_job(sessions: sessionmaker[Session], settings: Settings, job_id: int) -> str | None:
-    """Run a queued job; returns its final state, or None when it was not queued (a duplicate)."""
+    """Run the next queued job in the queue's order (jobs.QUEUE_ORDER), which is not always the job
+    whose message woke the worker: each message runs one job, so every job still runs once. Returns
+    the job's final state, or None when nothing was queued (a duplicate message)."""
     with session_scope(sessions) as session:
-        if not jobs.claim(session, job_id):
-            log.info("job %s is not queued any more; nothing to do", job_id)
+        woken_by, job_id = job_id, jobs.claim_next(session)
+        if job_id is None:
+            log.info("job %s's message found no queued job; nothing to do", woken_by)
             return None
         job = session.get(Job, job_id)
         session.expunge(job)
@@ -147,6 +151,7 @@ def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: J
 
 
 def _end(sessions: sessionmaker[Session], job_id: int, state: str, clock: StageClock, **values: str) -> str:
+    values = {key: without_paths(text) for key, text in values.items()}  # users see these; paths stay here
     with session_scope(sessions) as session:
         if jobs.finish(session, job_id, state, timings=clock.report(), **values):
             webhooks.job_finished(session, session.get(Job, job_id), state, error=values.get("error"))

@@ -126,7 +126,8 @@ def save_thumbnail(img: PIL.Image.Image, target: Path) -> None:
 def image_name(raw: str, what: str) -> str:
     """The stored file name: the upload's base name, JPEG/PNG suffix required."""
     name = PurePosixPath(raw.replace("\\", "/")).name.strip()
-    if not name or name.startswith(".") or len(name) > 200 or not name.isprintable():
+    # bytes, not characters: file systems cap a name at 255 bytes, and UTF-8 takes up to 4 a character
+    if not name or name.startswith(".") or len(name.encode()) > 200 or not name.isprintable():
         raise BadUpload(f"{what}: {raw!r} is not a usable image file name")
     if not name.lower().endswith(FORMATS["JPEG"] + FORMATS["PNG"]):
         raise BadUpload(f"{what}: {raw!r} is not a .jpg, .jpeg or .png file")

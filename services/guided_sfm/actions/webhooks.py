@@ -104,6 +104,13 @@ def job_finished(session: Session, job: Job, state: str, version_id: int | None 
                                                    "version_id": version_id, "error": error})
 
 
+def jobs_failed_by_sweep(session: Session, job_ids: list[int]) -> None:
+    """job_finished for jobs the sweeper failed (their worker died); committed here."""
+    for job in session.scalars(select(Job).where(Job.id.in_(job_ids))):
+        job_finished(session, job, job.state, job.version_id, job.error)
+    session.commit()
+
+
 def version_created(session: Session, version: Version, is_head: bool) -> None:
     emit(session, version.project_id, "version_created",
          {"version_id": version.id, "kind": version.kind, "parent_id": version.parent_id,

@@ -1,11 +1,12 @@
 """Dependencies as Annotated aliases: session, settings, store, current user, project by role, and
 the image, version, edit set or job of the path (404 naming it when the caller may not see it)."""
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from functools import cache
-from typing import Annotated
+from typing import Annotated, TypeVar
 
-from fastapi import Depends, Path, Request
+from fastapi import Depends, Path, Query, Request
 from fastapi.security import OAuth2PasswordBearer
 from sqlalchemy.orm import Session
 
@@ -13,6 +14,7 @@ from guided_sfm.actions import lookup, tokens
 from guided_sfm.actions.activity import Actor
 from guided_sfm.actions.lookup import InProject
 from guided_sfm.api import security
+from guided_sfm.api.throttle import Throttle
 from guided_sfm.db import queries
 from guided_sfm.db.models import MAX_ID, AccessToken, EditSetRow, Image, Job, Project, User, Version
 from guided_sfm.db.session import read_only
@@ -21,6 +23,8 @@ from guided_sfm.settings import Settings
 from guided_sfm.storage import ArtifactStore
 
 PathId = Annotated[int, Path(ge=1, le=MAX_ID)]
+MAX_PAGE = 10_000
+T = TypeVar("T")
 bearer = OAuth2PasswordBearer(tokenUrl="/api/v1/auth/token", auto_error=False)
 
 
@@ -47,7 +51,17 @@ def get_submit(request: Request) -> Callable[[int], None]:
     return request.app.state.submit
 
 
+def get_throttle(request: Request) -> Throttle:
+    return request.app.state.throttle
+
+
+def client_address(request: Request) -> str:
+    return request.app.state.throttle.client(request)
+
+
 SessionDep = Annotated[Session, Depends(get_session)]
+ThrottleDep = Annotated[Throttle, Depends(get_throttle)]
+ClientAddress = Annotated[str, Depends(client_address)]
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[ArtifactStore, Depends(get_store)]
 SubmitDep = Annotated[Callable[[int], None], Depends(get_submit)]
@@ -152,6 +166,26 @@ def job_with(needed: str) -> Callable[..., Job]:
 
 
 ViewerJob = Annotated[Job, Depends(job_with("viewer"))]
+
+
+@dataclass(frozen=True)
+class Page:
+    """Opt-in paging of a list (design.md): without `limit` the whole list, as in v1."""
+
+    limit: int | None
+    offset: int
+
+    def of(self, items: Sequence[T]) -> list[T]:
+        end = None if self.limit is None else self.offset + self.limit
+        return list(items[self.offset:end])
+
+
+def page(limit: Annotated[int | None, Query(ge=1, le=MAX_PAGE)] = None,
+         offset: Annotated[int, Query(ge=0, le=MAX_ID)] = 0) -> Page:
+    return Page(limit, offset)
+
+
+PageDep = Annotated[Page, Depends(page)]
 EditorJob = Annotated[Job, Depends(job_with("editor"))]
 
 

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import errno
+
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
-from sqlalchemy.exc import DataError
+from sqlalchemy.exc import DataError, InterfaceError, OperationalError
 
 from guided_sfm import errors
 from guided_sfm.core.errors import (
@@ -24,6 +26,7 @@ STATUS: list[tuple[type[DomainError], int]] = [
     (errors.Conflict, 409),
     (errors.PreconditionRequired, 428),
     (errors.TooLarge, 413),
+    (errors.TooManyRequests, 429),
     (errors.BadUpload, 422),
     (InvalidInput, 422),
     (UnknownImage, 422),
@@ -40,7 +43,10 @@ def status_of(exc: DomainError) -> int:
 
 async def domain_error(_request: Request, exc: DomainError) -> JSONResponse:
     headers = {"WWW-Authenticate": "Bearer"} if isinstance(exc, errors.Unauthorized) else None
-    return JSONResponse({"detail": str(exc)}, status_code=status_of(exc), headers=headers)
+    if isinstance(exc, errors.TooManyRequests):
+        headers = {"Retry-After": str(exc.retry_after)}
+    detail = errors.without_paths(str(exc))
+    return JSONResponse({"detail": detail}, status_code=status_of(exc), headers=headers)
 
 
 async def validation_error(_request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -53,11 +59,30 @@ async def validation_error(_request: Request, exc: RequestValidationError) -> JS
 
 async def unstorable_value(_request: Request, exc: DataError) -> JSONResponse:
     """A value the database refuses (out of range, NUL in text) that validation let through."""
-    reason = str(getattr(exc, "orig", exc)).splitlines()[0]
+    reason = errors.without_paths(str(getattr(exc, "orig", exc)).splitlines()[0])
     return JSONResponse({"detail": f"a value cannot be stored: {reason}"}, status_code=422)
+
+
+async def database_unavailable(_request: Request, exc: OperationalError | InterfaceError) -> JSONResponse:
+    """The database went away (restart, network) or stayed locked: the request may be retried."""
+    reason = errors.without_paths(str(getattr(exc, "orig", exc)).splitlines()[0][:200])
+    return JSONResponse({"detail": f"the database is unavailable ({reason}); retry shortly"},
+                        status_code=503, headers={"Retry-After": "5"})
+
+
+async def disk_full(request: Request, exc: OSError) -> JSONResponse:
+    """A full disk is the server's state, not a crash: 507, and the request stored nothing (every
+    write goes through staging first). Any other OSError stays a 500."""
+    if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        raise exc
+    return JSONResponse({"detail": "the server's storage is full; nothing was stored, try again later"},
+                        status_code=507)
 
 
 def install(app: FastAPI) -> None:
     app.add_exception_handler(DomainError, domain_error)  # type: ignore[arg-type]
     app.add_exception_handler(RequestValidationError, validation_error)  # type: ignore[arg-type]
     app.add_exception_handler(DataError, unstorable_value)  # type: ignore[arg-type]
+    app.add_exception_handler(OSError, disk_full)  # type: ignore[arg-type]
+    for unavailable in (OperationalError, InterfaceError):
+        app.add_exception_handler(unavailable, database_unavailable)  # type: ignore[arg-type]

@@ -163,6 +163,7 @@ class JobOut(Out):
     started_at: datetime | None
     finished_at: datetime | None
     timings: dict[str, Any] | None = None  # seconds and peak memory (MiB) per stage, once ended
+    queue_position: int | None = None  # while queued: 1 = next to run (applies go first)
 
 
 class StatsOut(Out):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import threading
 from datetime import UTC, datetime, timedelta
 
 import jwt
@@ -15,15 +17,21 @@ _hasher = PasswordHash.recommended()
 _DUMMY_HASH = _hasher.hash("not a password")
 
 
+# Argon2 takes 64 MiB and a core per hash: a flood of logins waits here instead of exhausting both.
+_slots = threading.BoundedSemaphore(max(2, os.cpu_count() or 2))
+
+
 def hash_password(password: str) -> str:
-    return _hasher.hash(password)
+    with _slots:
+        return _hasher.hash(password)
 
 
 def verify_password(password: str, password_hash: str | None) -> bool:
-    if password_hash is None:
-        _hasher.verify(password, _DUMMY_HASH)
-        return False
-    return _hasher.verify(password, password_hash)
+    with _slots:
+        if password_hash is None:
+            _hasher.verify(password, _DUMMY_HASH)
+            return False
+        return _hasher.verify(password, password_hash)
 
 
 def issue_token(user_id: int, secret: str, minutes: int, epoch: int = 0) -> str:

@@ -17,6 +17,7 @@ from guided_sfm.api.deps import (
     ViewerEditSet,
     ViewerProject,
 )
+from guided_sfm.api.routes.jobs import job_out
 from guided_sfm.api.schemas import (
     ApplyIn,
     EditSetIn,
@@ -28,7 +29,7 @@ from guided_sfm.api.schemas import (
     ReviewOut,
 )
 from guided_sfm.db import queries
-from guided_sfm.db.models import EditSetRow, Job, Review, Version
+from guided_sfm.db.models import EditSetRow, Review, Version
 
 router = APIRouter(prefix="/projects/{pid}/edits", tags=["edits"])
 
@@ -97,13 +98,13 @@ def preview(row: ViewerEditSet, session: SessionDep, store: StoreDep) -> dict:
 
 @router.post("/{eid}/apply", status_code=202, response_model=JobOut)
 def apply(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
-          submit: SubmitDep, actor: ActorDep, body: ApplyIn | None = None) -> Job:
+          submit: SubmitDep, actor: ActorDep, body: ApplyIn | None = None) -> JobOut:
     body = body or ApplyIn()
     review.check_apply(project, row)
     job = edit_sets.apply(session, submit, project, row, user.id, body.remap, body.message)
     record(session, project.id, actor, "apply", {"kind": "edit_set", "id": row.id},
            {"job_id": job.id, "revision": row.revision, "message": body.message})
-    return job
+    return job_out(session, job)
 
 
 @router.post("/{eid}/submit", response_model=EditSetOut)

@@ -10,6 +10,7 @@ from guided_sfm.actions.activity import record
 from guided_sfm.api.deps import (
     ActorDep,
     EditorProject,
+    PageDep,
     SessionDep,
     SettingsDep,
     StoreDep,
@@ -36,8 +37,8 @@ def upload_images(project: EditorProject, session: SessionDep, store: StoreDep, 
 
 
 @router.get("", response_model=list[ImageOut])
-def list_images(project: ViewerProject, session: SessionDep) -> list[Image]:
-    return queries.images(session, project.id)
+def list_images(project: ViewerProject, session: SessionDep, page: PageDep) -> list[Image]:
+    return page.of(queries.images(session, project.id))
 
 
 @router.get("/{image_id}/thumbnail", response_class=FileResponse)

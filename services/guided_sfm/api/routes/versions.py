@@ -1,8 +1,11 @@
 """Versions: list, scene, pairs, restore, export, compare."""
 
+import functools
+import gzip
+from pathlib import PurePosixPath
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import FileResponse
 from starlette.background import BackgroundTask
 
@@ -15,6 +18,7 @@ from guided_sfm.api.deps import (
     CurrentUser,
     EditorProject,
     EditorVersion,
+    PageDep,
     SessionDep,
     StoreDep,
     ViewerProject,
@@ -40,15 +44,30 @@ def list_versions(project: ViewerProject, session: SessionDep) -> list[VersionOu
 
 
 @router.get("/{vid}/scene", response_model=dict[str, Any])
-def scene(version: ViewerVersion, session: SessionDep, store: StoreDep) -> Response:
-    """The top-down scene (cached per version; sent as pre-serialized JSON)."""
-    return Response(version_data.scene_json(session, store, version), media_type="application/json")
+def scene(version: ViewerVersion, session: SessionDep, store: StoreDep, request: Request) -> Response:
+    """The top-down scene: a version never changes, so it is cached, tagged (304 when the client
+    has it) and sent gzipped to clients that take it."""
+    tag = f'"scene-{version.id}-{PurePosixPath(version.path).name}"'
+    headers = {"ETag": tag, "Cache-Control": "private, max-age=0, must-revalidate", "Vary": "Accept-Encoding"}
+    if tag in request.headers.get("if-none-match", ""):
+        return Response(status_code=304, headers=headers)
+    data = version_data.scene_json(session, store, version)
+    if "gzip" in request.headers.get("accept-encoding", ""):
+        return Response(_gzipped(data), media_type="application/json",
+                        headers={**headers, "Content-Encoding": "gzip"})
+    return Response(data, media_type="application/json", headers=headers)
+
+
+@functools.lru_cache(maxsize=32)
+def _gzipped(data: bytes) -> bytes:
+    """The cached scene's bytes are the same object each time, so their hash is computed once."""
+    return gzip.compress(data, compresslevel=6, mtime=0)
 
 
 @router.get("/{vid}/pairs", response_model=list[PairOut])
-def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep,
+def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep, page: PageDep,
           image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> list[dict]:
-    return version_data.pairs(session, store, version, image_id)
+    return page.of(version_data.pairs(session, store, version, image_id))
 
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)
