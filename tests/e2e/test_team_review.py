@@ -160,8 +160,8 @@ def comment_and_reply(ana, ben) -> None:
     assert pin_pixel(ana, camera) == (0xD5, 0x3F, 0x8C)  # the pin's colour, drawn on the scene
     # ben: the notification, the pin and the strip's badge within one polling period
     ben.wait_for_selector("#inbox-button[data-unread='1']", timeout=(POLL_S + 3) * 1000)
-    ben.wait_for_function(f"(document.querySelector('#scene').dataset.pins || '').includes('{camera}:1')",
-                          timeout=(POLL_S + 3) * 1000)
+    ben.wait_for_function("pin => (document.querySelector('#scene').dataset.pins || '').includes(pin)",
+                          arg=f"{camera}:1", timeout=(POLL_S + 3) * 1000)
     assert time.monotonic() - posted <= POLL_S + 3
     assert ben.get_attribute(f"#strip .thumb[data-id='{camera}']", "data-comments") == "1"
     shot(ben, "team-ben-sees-the-pin")
@@ -210,7 +210,7 @@ def both_see_activity_and_presence(ana, ben) -> None:
         page.wait_for_selector("#activity-list li[data-action=apply]", timeout=(POLL_S + 3) * 1000)
         actions = page.eval_on_selector_all("#activity-list li", "all => all.map((i) => i.dataset.action)")
         assert {"comment", "edit_save", "submit", "review", "apply", "job_end"} <= set(actions), actions
-        page.wait_for_function("(document.querySelector('#presence').dataset.users || '') === 'ana,ben'",
+        page.wait_for_function("() => document.querySelector('#presence').dataset.users === 'ana,ben'",
                                timeout=(POLL_S + 3) * 1000)
     shot(ana, "team-ana-activity")
 
@@ -223,7 +223,7 @@ def look_in_3d(ana) -> None:
     """The 3D view beside the top-down one: every registered camera's frustum, the points in their
     colours and the moved camera's frustum highlighted, on the canvas's pixels."""
     ana.click("#show-3d")
-    ana.wait_for_function("Number(document.querySelector('#scene3d').dataset.frames || 0) > 0")
+    ana.wait_for_function("() => Number(document.querySelector('#scene3d').dataset.frames || 0) > 0")
     assert int(ana.get_attribute("#scene3d", "data-frusta")) == 12
     assert int(ana.get_attribute("#scene3d", "data-points")) > 100
     moved = ana.get_attribute("#scene3d", "data-moved")
