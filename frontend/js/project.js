@@ -250,7 +250,8 @@ export class ProjectPage {
     if (this.sync.editId === null) await this.sync.save();
     try {
       const path = `/projects/${this.store.project.id}/edits/${this.sync.editId}/apply`;
-      const job = await post(path, { remap: true });
+      const note = this.root.querySelector("#apply-message")?.value.trim();
+      const job = await post(path, note ? { remap: true, message: note } : { remap: true });
       this.notify(`Applying the edits: job ${job.id}.`);
       this.followJob(job);
     } catch (error) {

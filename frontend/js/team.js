@@ -53,25 +53,29 @@ export class TeamPanel {
     this.renderBadges(open);
   }
 
-  // The thread shown: the one selected camera's, else the project's.
+  // The thread shown: the one selected camera's, the two selected cameras' pair, else the project's.
   target() {
-    const [only, ...more] = this.store.selection;
-    if (only !== undefined && !more.length) return { kind: "image", id: only };
+    const [first, ...more] = this.store.selection;
+    if (first !== undefined && !more.length) return { kind: "image", id: first };
+    if (more.length === 1) return { kind: "pair", image_ids: [first, more[0]].sort((a, b) => a - b) };
     return { kind: "project" };
   }
 
   onTarget(comment, target) {
-    return comment.target.kind === target.kind && (comment.target.id ?? null) === (target.id ?? null);
+    const key = (t) => `${t.kind}:${t.id ?? ""}:${(t.image_ids ?? []).join("-")}`;
+    return key(comment.target) === key(target);
   }
 
   renderThread() {
     const target = this.target();
-    const name = target.kind === "image" ? this.store.byId.get(target.id)?.name ?? `image ${target.id}`
-      : "the project";
+    const nameOf = (id) => this.store.byId.get(id)?.name ?? `image ${id}`;
+    const name = target.kind === "image" ? nameOf(target.id)
+      : target.kind === "pair" ? `the pair ${target.image_ids.map(nameOf).join(" – ")}` : "the project";
     this.el("thread-title").textContent = `Comments on ${name}`;
     const thread = this.comments.filter((c) => this.onTarget(c, target));
     const list = this.el("thread");
-    list.dataset.target = target.kind === "image" ? `image:${target.id}` : "project";
+    list.dataset.target = target.kind === "image" ? `image:${target.id}`
+      : target.kind === "pair" ? `pair:${target.image_ids.join("-")}` : "project";
     list.replaceChildren(...thread.map((c) => this.commentItem(c)));
     if (!thread.length) list.append(Object.assign(document.createElement("li"), { className: "hint",
       textContent: "No comments yet." }));
@@ -141,13 +145,17 @@ export class TeamPanel {
     }
   }
 
-  // Pins at the cameras with open comments (drawn by the scene's overlay hook).
+  // Pins at the cameras with open comments, and at the midpoint of pairs with some (drawn by the
+  // scene's overlay hook); a pin's key is the image id, or "id1-id2" for a pair.
   renderPins(open) {
     const counts = new Map();
-    for (const c of open) if (c.target.kind === "image") counts.set(c.target.id, (counts.get(c.target.id) ?? 0) + 1);
-    this.pins = counts;
+    for (const c of open) {
+      const key = c.target.kind === "image" ? String(c.target.id)
+        : c.target.kind === "pair" ? c.target.image_ids.join("-") : null;
+      if (key) counts.set(key, (counts.get(key) ?? 0) + 1);
+    }
     this.view.overlay = (ctx, t, px) => drawPins(ctx, t, px, this.view, counts);
-    this.view.canvas.dataset.pins = [...counts].map(([id, n]) => `${id}:${n}`).join(",");
+    this.view.canvas.dataset.pins = [...counts].map(([key, n]) => `${key}:${n}`).join(",");
     this.view.requestDraw();
   }
 
@@ -251,26 +259,42 @@ function button(text, action, commentId) {
   return b;
 }
 
-// A speech-bubble pin with the number of open comments, beside each commented camera.
+// Where each pin goes, in world coordinates: beside its camera, or at its pair's midpoint.
+function pinSpots(view, counts) {
+  const poses = new Map();
+  for (const cam of view.cameras) {
+    const pose = view.poseOf(cam);
+    if (pose) poses.set(String(cam.id), pose);
+  }
+  const spots = [];
+  for (const [key, n] of counts) {
+    const ends = key.split("-").map((id) => poses.get(id));
+    if (ends.some((p) => !p)) continue;
+    const x = ends.reduce((sum, p) => sum + p.x, 0) / ends.length;
+    const y = ends.reduce((sum, p) => sum + p.y, 0) / ends.length;
+    spots.push({ key, n, x, y, beside: ends.length === 1 });
+  }
+  return spots;
+}
+
+// A speech-bubble pin with the number of open comments.
 export function drawPins(ctx, t, px, view, counts) {
   ctx.save();
   ctx.font = `${10 * px}px system-ui, sans-serif`;
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";
   const at = []; // where each pin was drawn (device pixels), for tests and tools
-  for (const cam of view.cameras) {
-    const n = counts.get(cam.id);
-    const pose = n && view.poseOf(cam);
-    if (!pose) continue;
-    const [x, y] = t(pose.x, pose.y);
-    const [cx, cy, r] = [x + 9 * px, y - 9 * px, 7 * px];
+  for (const { key, n, x: wx, y: wy, beside } of pinSpots(view, counts)) {
+    const [x, y] = t(wx, wy);
+    const shift = beside ? 9 * px : 0;
+    const [cx, cy, r] = [x + shift, y - shift, 7 * px];
     ctx.fillStyle = view.colours.pin ?? "#d53f8c";
     ctx.beginPath();
     ctx.arc(cx, cy, r, 0, 2 * Math.PI);
     ctx.fill();
     ctx.fillStyle = "#fff";
     ctx.fillText(String(n), cx, cy + 0.5 * px);
-    at.push(`${cam.id}:${Math.round(cx - 4 * px)},${Math.round(cy)}`);
+    at.push(`${key}:${Math.round(cx - 4 * px)},${Math.round(cy)}`);
   }
   ctx.restore();
   view.canvas.dataset.pinsAt = at.join(" ");

@@ -119,7 +119,7 @@ def shot(page, name: str) -> None:
     shutil.copy(ARTIFACTS / f"{name}.png", DOCS / f"{name}.png")
 
 
-def pin_pixel(page, image_id: int) -> tuple[int, int, int]:
+def pin_pixel(page, image_id: int | str) -> tuple[int, int, int]:
     """The canvas colour inside the camera's pin, where the scene says it drew it (beside its digit)."""
     return tuple(page.evaluate("""async (id) => {
         await new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(done)));
@@ -179,6 +179,22 @@ def comment_and_reply(ana, ben) -> None:
     ben.click("#comment-form button[type=submit]")
     ben.wait_for_selector("#thread li.comment.reply >> text=north wall")
     ana.wait_for_selector("#thread li.comment.reply >> text=north wall", timeout=(POLL_S + 3) * 1000)
+    pair_comment(ben)
+
+
+def pair_comment(ben) -> None:
+    """Two cameras selected: the thread is their pair's, and its pin sits at their midpoint."""
+    first, second = (int(ben.locator("#strip .thumb").nth(i).get_attribute("data-id")) for i in (5, 6))
+    ben.locator(f"#strip .thumb[data-id='{first}']").click()
+    ben.locator(f"#strip .thumb[data-id='{second}']").click(modifiers=["Control"])
+    key = "-".join(str(i) for i in sorted((first, second)))
+    ben.wait_for_selector(f"#thread[data-target='pair:{key}']")
+    ben.fill("#comment-form textarea", "these two do not overlap at all")
+    ben.click("#comment-form button[type=submit]")
+    ben.wait_for_function("pin => (document.querySelector('#scene').dataset.pins || '').includes(pin)",
+                          arg=f"{key}:1")
+    assert pin_pixel(ben, key) == (0xD5, 0x3F, 0x8C)
+    ben.keyboard.press("Escape")
 
 
 def review_and_apply(ana, ben, server: Server, pid: int) -> None:
@@ -198,10 +214,14 @@ def review_and_apply(ana, ben, server: Server, pid: int) -> None:
     shot(ana, "team-ana-approved")
     look_in_3d(ana)
     head = server.get(f"/projects/{pid}")["head_version_id"]
+    ana.fill("#apply-message", "camera 3 back on the north wall")
     ana.click("#apply-button")
     ana.wait_for_function("h => !(document.body.dataset.ready || '').endsWith('/' + h)", arg=str(head),
                           timeout=300_000)
-    assert server.get(f"/projects/{pid}")["head_version_id"] != head
+    new_head = server.get(f"/projects/{pid}")["head_version_id"]
+    assert new_head != head
+    version = next(v for v in server.get(f"/projects/{pid}/versions") if v["id"] == new_head)
+    assert version["message"].startswith("camera 3 back on the north wall (edit set")
 
 
 def both_see_activity_and_presence(ana, ben) -> None:
