@@ -205,6 +205,11 @@ def review_and_apply(ana, ben, server: Server, pid: int) -> None:
     ana.click("#submit-review")
     ana.wait_for_selector("#review-box[data-state=in_review]")
     assert ana.is_disabled("#approve")  # her own edit set
+    eid = server.get(f"/projects/{pid}/edits")[0]["id"]
+    gated = server.request("POST", f"/projects/{pid}/edits/{eid}/apply", json={"remap": True})
+    assert gated.status_code == 409 and "in_review" in gated.json()["detail"]  # not approved yet
+    mine = server.request("POST", f"/projects/{pid}/edits/{eid}/reviews", json={"verdict": "approve"})
+    assert mine.status_code == 403  # ana cannot approve her own
     ben.wait_for_selector("#review-box[data-state=in_review]", timeout=(POLL_S + 3) * 1000)
     ben.fill("#review-comment", "checked against the north wall")
     ben.click("#approve")
