@@ -27,6 +27,8 @@ test: install
 	@if $(BIN)/python -c "import psycopg; psycopg.connect('host=127.0.0.1 user=postgres dbname=postgres', connect_timeout=3).close()" 2>/dev/null; then \
 		echo "--- again on Postgres ---"; \
 		GUIDED_SFM_TEST_DATABASE_URL=$(POSTGRES_TEST_URL) $(BIN)/python -m pytest tests/api tests/worker tests/test_migrations.py -m "not slow and not browser"; \
+	elif [ "$$GUIDED_SFM_REQUIRE_SERVICES" = 1 ]; then \
+		echo "--- Postgres not reachable on 127.0.0.1:5432 and GUIDED_SFM_REQUIRE_SERVICES=1: failing ---"; exit 1; \
 	else echo "--- Postgres not reachable on 127.0.0.1:5432: its pass is skipped ---"; fi
 
 lint: install

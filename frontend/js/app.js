@@ -1,5 +1,5 @@
 // Entry point: hash routes (#/, #/p/ID, #/p/ID/v/VID), sign-in, the project list, notices.
-import { ApiError, get, post, session, setUnauthorizedHandler, signIn, signUp } from "./api.js";
+import { ApiError, del, get, post, session, setUnauthorizedHandler, signIn, signUp } from "./api.js";
 import { Inbox } from "./inbox.js";
 import { JobStatus } from "./jobs.js";
 import { ProjectPage } from "./project.js";
@@ -103,7 +103,28 @@ function projectCard(p) {
   const who = [p.role ? `your role: ${p.role}` : "", p.owner ? `owner: ${p.owner}` : ""].filter(Boolean);
   meta.textContent = [p.description, head, ...who].filter(Boolean).join(" · ");
   li.append(a, meta);
+  if (p.role === "owner") {
+    const remove = document.createElement("button");
+    remove.type = "button";
+    remove.className = "danger";
+    remove.textContent = "Delete";
+    remove.title = `Delete project "${p.name}" with all its images and versions`;
+    remove.addEventListener("click", () => deleteProject(p));
+    li.append(remove);
+  }
   return li;
+}
+
+async function deleteProject(p) {
+  const question = `Delete project "${p.name}" with all its images, versions and edits? This cannot be undone.`;
+  if (!window.confirm(question)) return;
+  try {
+    await del(`/projects/${p.id}`);
+    notify(`Deleted project "${p.name}".`);
+  } catch (error) {
+    notify(`Could not delete project "${p.name}": ${error.message}`, "error");
+  }
+  showProjects(false);
 }
 
 $("sign-in-form").addEventListener("submit", async (e) => {

@@ -42,6 +42,7 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
     "flag-button": () => editor.toggleFlag(),
     "place-button": () => editor.placeSelectionAtCentre(),
     "reset-button": () => editor.resetSelected(),
+    "scale-button": () => setScale(),
   };
   for (const [id, handler] of Object.entries(actions)) on(id, handler);
 
@@ -58,6 +59,25 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
     if (handled) e.preventDefault();
   }, { signal });
 
+  // A known distance between two selected cameras sets metres per model unit (kept per project in
+  // this browser); an empty answer goes back to the model's units.
+  function setScale() {
+    const poses = editor.selectedPoses();
+    if (poses.length !== 2) return notify("Select exactly two placed cameras whose distance you know.");
+    const units = Math.hypot(poses[0].x - poses[1].x, poses[0].y - poses[1].y);
+    const answer = window.prompt(`Distance between ${poses[0].name} and ${poses[1].name} in metres ` +
+      `(${units.toPrecision(3)} units apart in the scene); leave empty to show units again:`);
+    if (answer === null) return undefined;
+    const metres = Number(answer.replace(",", "."));
+    if (answer.trim() && !(metres > 0 && units > 0)) return notify(`"${answer}" is not a distance in metres.`);
+    store.metresPerUnit = answer.trim() ? metres / units : null;
+    const key = `gsfm.scale.${store.project.id}`;
+    if (store.metresPerUnit) localStorage.setItem(key, String(store.metresPerUnit));
+    else localStorage.removeItem(key);
+    store.emit("display");
+    return undefined;
+  }
+
   // Alt+arrows pan the view by a tenth of its size.
   function panKey(e) {
     const arrows = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, 1], ArrowDown: [0, -1] };
@@ -72,6 +92,11 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
       m: actions["show-matching"], t: actions["show-frusta"], o: actions["show-order"], d: showPreview,
       0: () => view({ fit: true }),
       "+": () => view({ zoom: 1.25 }), "=": () => view({ zoom: 1.25 }), "-": () => view({ zoom: 0.8 }),
+      "?": () => {
+        $("keys-panel").open = true;
+        $("keys-panel").scrollIntoView({ block: "nearest" });
+        $("keys-panel").querySelector("summary").focus();
+      },
     };
     const handler = keys[e.key.toLowerCase()];
     if (!handler) return false;
@@ -104,6 +129,27 @@ export function bindControls(root, { store, draft, editor, selection, page, noti
       $("show-frusta").setAttribute("aria-pressed", String(store.showFrusta));
       $("show-order").setAttribute("aria-pressed", String(store.showOrder));
       root.dataset.selectionCount = String(n);
+      warnFarPlacements($("placement-warning"), store, draft, editor);
     },
   };
+}
+
+const FAR_RANGES = 4; // a placement this many median ranges from every matched camera is suspect
+
+// A placement far from every camera it matches (behind the facade, 60 units away) is most likely
+// a slip: say so beside the selection, naming the cameras and the distance.
+function warnFarPlacements(box, store, draft, editor) {
+  const far = [];
+  for (const id of draft.cameras.keys()) {
+    const cam = store.byId.get(id);
+    const pose = cam && editor.poseOf(cam);
+    const partners = [...(store.pairs.get(id)?.keys() ?? [])].map((p) => store.byId.get(p)).filter(Boolean)
+      .map((c) => editor.poseOf(c)).filter(Boolean);
+    if (!pose || !partners.length) continue;
+    const nearest = Math.min(...partners.map((p) => Math.hypot(p.x - pose.x, p.y - pose.y)));
+    if (nearest > FAR_RANGES * editor.medianRange) far.push(`${cam.name} (${nearest.toPrecision(3)} units)`);
+  }
+  box.hidden = !far.length;
+  box.textContent = far.length ? `Check the placement: ${far.join(", ")} from the nearest camera it ` +
+    `matches, over ${FAR_RANGES}× the typical range (${editor.medianRange.toPrecision(3)}).` : "";
 }

@@ -79,9 +79,12 @@ export function drawArrows(ctx, t, arrows, { colour, px }) {
   ctx.stroke();
 }
 
-// A round length bar in the bottom-left corner; returns its length in world units.
-export function drawScaleBar(ctx, { width, height, scale, px, ink, background }) {
-  const length = niceLength((width * 0.2) / scale);
+// A round length bar in the bottom-left corner, in metres once the user set a known distance
+// (metresPerUnit), else in the model's units; returns [its length in world units, its label].
+export function drawScaleBar(ctx, { width, height, scale, px, ink, background, metresPerUnit = null }) {
+  const perUnit = metresPerUnit ?? 1;
+  const shown = niceLength((width * 0.2 * perUnit) / scale);
+  const length = shown / perUnit;
   const bar = length * scale;
   const x = 14 * px;
   const y = height - 14 * px;
@@ -97,9 +100,10 @@ export function drawScaleBar(ctx, { width, height, scale, px, ink, background })
   ctx.stroke();
   ctx.fillStyle = ink;
   ctx.font = `${12 * px}px system-ui, sans-serif`;
-  const value = +length.toPrecision(3);
-  ctx.fillText(`${value} ${value === 1 ? "unit" : "units"}`, x, y - 8 * px);
-  return length;
+  const value = +shown.toPrecision(3);
+  const label = metresPerUnit ? `${value} m` : `${value} ${value === 1 ? "unit" : "units"}`;
+  ctx.fillText(label, x, y - 8 * px);
+  return [length, label];
 }
 
 // Small text labels [[text, pose], ...] beside their cameras, skipping any that would overlap

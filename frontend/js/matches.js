@@ -44,6 +44,7 @@ export class MatchesPanel {
     const box = document.createElement("input");
     box.type = "checkbox";
     box.value = key;
+    box.disabled = !this.store.canWrite; // it only picks pairs for deletion
     const img = document.createElement("img");
     img.alt = "";
     thumbnailUrl(this.store.project.id, partner).then((url) => { img.src = url; }, () => {});

@@ -142,12 +142,15 @@ export class ProjectPage {
     view.setArrows([]);
     store.showFrusta = view.showFrusta; // the display toggles outlive the page, like the view
     store.showOrder = view.showOrder;
+    store.metresPerUnit = Number(localStorage.getItem(`gsfm.scale.${store.project.id}`)) || null;
+    view.metresPerUnit = store.metresPerUnit;
     Object.assign(view.canvas.dataset, { step: String(editor.step), rotateStep: String(editor.rotateStep) });
     store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
     store.on("lines", (lines) => view.setLines(lines));
     store.on("arrows", (arrows) => view.setArrows(arrows));
     store.on("display", () => {
-      Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder });
+      Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder,
+        metresPerUnit: store.metresPerUnit });
       view.requestDraw();
     });
     store.on("view", (command) => view.command(command));
@@ -194,8 +197,28 @@ export class ProjectPage {
     const running = jobs.find((j) => !TERMINAL.has(j.state));
     if (running) this.followJob(running);
     else if (jobs.length && first) this.jobStatus.show(jobs.sort((a, b) => b.id - a.id)[0]);
+    if (!first && !running) await this.checkHead();
     clearTimeout(this.jobTimer);
     this.jobTimer = setTimeout(() => this.watchRunningJob(false).catch(() => {}), JOB_LOOK_MS);
+  }
+
+  // Someone else made a new head (applied, restored): offer to reload onto it; the edits on
+  // screen are carried over then (DraftSync.attach rebases them).
+  async checkHead() {
+    const project = await get(`/projects/${this.store.project.id}`);
+    const head = project.head_version_id;
+    if (this.abort.signal.aborted || head === this.store.project.head_version_id) return;
+    this.store.project.head_version_id = head;
+    this.showBanner(`v${head} is the project's new head (made by someone else). Your edits are on v` +
+      `${this.store.version?.id}; reload to carry them onto v${head}.`);
+    const reload = document.createElement("button");
+    reload.type = "button";
+    reload.textContent = "Reload onto the new head";
+    reload.addEventListener("click", async () => {
+      await this.sync?.flush(); // the latest change is saved before the edit set is carried over
+      this.reopen();
+    }, { signal: this.abort.signal });
+    this.root.querySelector("#banner").append(" ", reload);
   }
 
   // Lock editing while the job runs; when it ends, show the project's (new) head.
@@ -248,6 +271,10 @@ export class ProjectPage {
     }
     await this.sync.flush();
     if (this.sync.editId === null) await this.sync.save();
+    const cuts = this.store.preview?.pairs_to_delete?.length ?? 0;
+    const question = "The rule deletes no pair for these edits, so mapping again will most likely put " +
+      "the cameras back where they were. Run the reconstruction anyway?";
+    if (!cuts && !window.confirm(question)) return;
     try {
       const path = `/projects/${this.store.project.id}/edits/${this.sync.editId}/apply`;
       const note = this.root.querySelector("#apply-message")?.value.trim();

@@ -23,6 +23,7 @@ export class SceneView {
     this.hovered = null;
     this.showFrusta = false;
     this.showOrder = true; // the capture-order line and labels
+    this.metresPerUnit = null; // set from a known distance: the scale bar then speaks metres
     this.lines = []; // [{a, b, kind: "match"|"cut"|"estimate", weight}]
     this.arrows = []; // [{from: [x, y], to: [x, y]}]
     this.colours = readColours(canvas);
@@ -165,6 +166,7 @@ export class SceneView {
     this.drawLines(t, px);
     drawArrows(ctx, t, this.arrows, { colour: colours.arrow, px });
     this.drawCameras(ctx, t, dynamic, px);
+    this.drawHoverRing(t, posed, px);
     this.drawOrderLabels(t, ordered, px);
     if (posed.length || this.points.length) this.drawScale(px);
     this.overlay?.(ctx, t, px); // e.g. comment pins, drawn by their panel
@@ -175,9 +177,11 @@ export class SceneView {
 
   drawScale(px) {
     const { ctx, canvas, colours } = this;
-    const length = drawScaleBar(ctx, { width: canvas.width, height: canvas.height, scale: this.view.scale,
+    const [length, label] = drawScaleBar(ctx, { width: canvas.width, height: canvas.height, scale: this.view.scale,
+      metresPerUnit: this.metresPerUnit,
       px, ink: colours.ink, background: colours.scaleBg });
     canvas.dataset.scaleBar = String(length);
+    canvas.dataset.scaleLabel = label;
   }
 
   // Points and every camera that is neither selected nor hovered, redrawn only when they change
@@ -216,6 +220,17 @@ export class SceneView {
       key[k++] = p.range ?? -1;
     }
     return key;
+  }
+
+  drawHoverRing(t, posed, px) {
+    const hovered = posed.find(([cam]) => cam.id === this.hovered);
+    if (!hovered) return;
+    const [sx, sy] = t(hovered[1].x, hovered[1].y);
+    this.ctx.beginPath();
+    this.ctx.arc(sx, sy, 8 * px, 0, 2 * Math.PI);
+    this.ctx.lineWidth = 2 * px;
+    this.ctx.strokeStyle = this.colours.hovered;
+    this.ctx.stroke();
   }
 
   // The capture order: a thin line joining consecutive placed cameras (by seq; drawn each frame,
@@ -281,9 +296,10 @@ export class SceneView {
     }
   }
 
+  // Selected wins over hovered (a ring shows the hover), so hovering never hides a selection.
   categoryOf(cam) {
-    if (cam.id === this.hovered) return "hovered";
     if (this.selected.has(cam.id)) return "selected";
+    if (cam.id === this.hovered) return "hovered";
     if (this.flagged.has(cam.id)) return "flagged";
     if (!cam.registered) return "unregistered";
     return this.moved.has(cam.id) ? "moved" : "camera";

@@ -36,6 +36,7 @@ export function createStore() {
     showMatching: false,
     showFrusta: false,
     showOrder: true, // the capture-order line and camera numbers
+    metresPerUnit: null, // from a known distance the user gave; the scale bar then shows metres
     preview: null, // the server's answer to GET .../edits/{id}/preview
     previewState: "none", // none | stale | ready
     lines: [], // [{a, b, kind: "match"|"cut"|"estimate", weight}]

@@ -1,5 +1,10 @@
 // Adding images (JPEG/PNG or one .zip) with upload progress, and starting a reconstruction.
-import { post, upload } from "./api.js";
+import { del, post, upload } from "./api.js";
+
+const BATCH = 8; // images per upload request
+
+// "x.jpg (not a readable JPEG or PNG image)": the server's detail names the file first already.
+const reason = (name, detail) => (detail.startsWith(`${name}:`) ? detail : `${name} (${detail})`);
 
 export class UploadPanel {
   constructor(root, { store, projectId, notify, onUploaded, onJob }, signal) {
@@ -8,33 +13,84 @@ export class UploadPanel {
     this.bar = root.querySelector("#upload-progress");
     this.status = root.querySelector("#upload-status");
     this.form.addEventListener("submit", (e) => { e.preventDefault(); this.send(); }, { signal });
+    root.querySelector("#delete-images").addEventListener("click", () => this.deleteSelected(), { signal });
     root.querySelector("#reconstruct-form").addEventListener("submit", (e) => {
       e.preventDefault();
       this.reconstruct(new FormData(e.target));
     }, { signal });
   }
 
+  // Images go in batches of BATCH (each request is all-or-nothing on the server); a refused batch
+  // is sent again file by file, so one bad file costs only itself and each is reported.
   async send() {
-    const files = this.form.querySelector("input[type=file]").files;
+    const files = [...this.form.querySelector("input[type=file]").files];
     if (!files.length) return this.notify("Choose images (or one .zip) first.");
-    const data = new FormData();
-    for (const file of files) data.append("files", file);
     this.bar.hidden = false;
     this.setProgress(0);
+    const batches = [];
+    for (let i = 0; i < files.length; i += BATCH) batches.push(files.slice(i, i + BATCH));
+    const stored = [];
+    const refused = [];
+    let done = 0;
+    for (const batch of batches) {
+      const part = (f) => this.setProgress((done + f * batch.length) / files.length);
+      const outcome = await this.sendBatch(batch, part);
+      stored.push(...outcome.stored);
+      refused.push(...outcome.refused);
+      done += batch.length;
+    }
+    this.bar.hidden = !stored.length; // no full bar beside a failure
+    this.setProgress(1);
+    this.status.textContent = (stored.length ? `Uploaded ${stored.length} images.` : "Nothing was uploaded.") +
+      (refused.length ? ` Not uploaded: ${refused.join("; ")}.` : "");
+    this.root.dataset.uploaded = String(stored.length);
+    this.root.dataset.refused = String(refused.length);
+    if (!refused.length) this.form.reset();
+    if (stored.length) this.onUploaded(stored);
+  }
+
+  async sendBatch(batch, progress) {
+    const post1 = (files) => {
+      const data = new FormData();
+      for (const file of files) data.append("files", file);
+      return upload(`/projects/${this.projectId}/images`, data, progress);
+    };
     try {
-      const images = await upload(`/projects/${this.projectId}/images`, data, (f) => this.setProgress(f));
-      this.setProgress(1);
-      this.status.textContent = `Uploaded ${images.length} images.`;
-      this.form.reset();
-      this.onUploaded(images);
+      return { stored: await post1(batch), refused: [] };
     } catch (error) {
-      this.bar.hidden = true; // no full bar beside a failure
-      this.status.textContent = `Upload failed: ${error.message}`;
+      if (batch.length === 1) return { stored: [], refused: [reason(batch[0].name, error.message)] };
+      const out = { stored: [], refused: [] };
+      for (const file of batch) {
+        const one = await this.sendBatch([file], () => {});
+        out.stored.push(...one.stored);
+        out.refused.push(...one.refused);
+      }
+      return out;
     }
   }
 
+  // Delete the selected images, one request each; the server refuses those a version uses
+  // (design.md v1.1), and each answer is reported.
+  async deleteSelected() {
+    const ids = [...this.store.selection];
+    if (!ids.length) return this.notify("Select the images to delete first (in the strip).");
+    const names = ids.map((id) => this.store.byId.get(id)?.name ?? `#${id}`);
+    if (!window.confirm(`Delete ${names.length} image(s): ${names.join(", ")}? This cannot be undone.`)) return;
+    const outcome = [];
+    for (const [i, id] of ids.entries()) {
+      try {
+        await del(`/projects/${this.projectId}/images/${id}`);
+        outcome.push(`${names[i]} deleted`);
+      } catch (error) {
+        outcome.push(`${names[i]} kept: ${error.message}`);
+      }
+    }
+    this.status.textContent = outcome.join("; ");
+    if (outcome.some((o) => o.endsWith(" deleted"))) this.onUploaded([]);
+  }
+
   setProgress(fraction) {
-    const percent = Math.round(100 * fraction);
+    const percent = Math.round(100 * Math.min(1, fraction));
     this.bar.querySelector(".fill").style.width = `${percent}%`;
     this.bar.setAttribute("aria-valuenow", String(percent));
     this.status.textContent = `Uploading… ${percent}%`;

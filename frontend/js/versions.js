@@ -1,6 +1,6 @@
 // Version history: author, time and stats of every version; open one read-only, restore it, or
 // compare it with the version on screen (cameras that moved, drawn as arrows on the scene).
-import { get, post } from "./api.js";
+import { blobUrl, get, post } from "./api.js";
 import { median } from "./geometry.js";
 
 const MOVED_SHARE = 0.1; // of the median camera range: a camera farther than this has moved
@@ -62,6 +62,8 @@ export class VersionsPanel {
       actions.append(button("Restore", "restore", v.id, "Make a new head with this content", locked));
     }
     if (!onScreen) actions.append(button("Compare", "compare", v.id, "Arrows from it to the version on screen"));
+    actions.append(button("Export COLMAP", "export-colmap", v.id, "Download its model (cameras.bin, images.bin, points3D.bin) as a zip"));
+    actions.append(button("Export PLY", "export-ply", v.id, "Download its points with colours (binary PLY)"));
     li.append(actions);
     return li;
   }
@@ -74,7 +76,25 @@ export class VersionsPanel {
       const head = id === this.store.project.head_version_id;
       location.hash = head ? `#/p/${this.store.project.id}` : `#/p/${this.store.project.id}/v/${id}`;
     } else if (target.dataset.action === "restore") this.restore(id);
+    else if (target.dataset.action.startsWith("export-")) this.exportAs(id, target.dataset.action.slice(7));
     else this.compare(id);
+  }
+
+  // Download an export: fetched with the token (a plain link cannot send it), saved by a link.
+  async exportAs(id, format) {
+    try {
+      const url = await blobUrl(`${this.base}/${id}/export?format=${format}`);
+      const a = document.createElement("a");
+      a.href = url;
+      a.download = `${this.store.project.name}-v${id}.${format === "ply" ? "ply" : "zip"}`;
+      document.body.append(a);
+      a.click();
+      a.remove();
+      setTimeout(() => URL.revokeObjectURL(url), 60000);
+      this.notify(`Exported v${id} (${format === "ply" ? "PLY points" : "COLMAP model"}).`);
+    } catch (error) {
+      this.notify(`Could not export v${id}: ${error.message}`, "error");
+    }
   }
 
   async restore(id) {
@@ -125,7 +145,7 @@ export class VersionsPanel {
       sharedFrame: String(shared) });
     this.summary.textContent = `v${otherId} → v${this.store.version.id}: ${moved.length} of ${common.length} ` +
       (shared ? "cameras moved (arrows)." : `cameras moved; v${otherId} is in another frame (a separate ` +
-        "reconstruction), so no arrows are drawn.");
+        "reconstruction), so no arrows are drawn.") + movedNames(moved);
     this.clearButton.hidden = false;
   }
 
@@ -137,6 +157,13 @@ export class VersionsPanel {
     delete this.summary.dataset.sharedFrame;
     this.clearButton.hidden = true;
   }
+}
+
+// " Moved: #3 0002.jpg, #4 0003.jpg, …": which cameras, in capture order (at most a dozen named).
+function movedNames(moved) {
+  if (!moved.length) return "";
+  const named = [...moved].sort((a, b) => a.seq - b.seq).slice(0, 12).map((c) => `#${c.seq + 1} ${c.name}`);
+  return ` Moved: ${named.join(", ")}${moved.length > 12 ? `, and ${moved.length - 12} more` : ""}.`;
 }
 
 const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];

@@ -23,6 +23,7 @@ def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict, cid: in
         ("GET", f"{p}/images", VIEWER, {}),
         ("GET", f"{p}/images/{iid}/thumbnail", VIEWER, {}),
         ("GET", f"{p}/images/{iid}/file", VIEWER, {}),
+        ("DELETE", f"{p}/images/{iid}", EDITOR, {}),
         ("POST", f"{p}/reconstruct", EDITOR, {"json": {}}),
         ("POST", f"{p}/import", EDITOR, {"files": {"file": ("ws.zip", b"PK", "application/zip")}}),
         ("GET", f"{p}/jobs", VIEWER, {}),
@@ -71,15 +72,15 @@ def team_routes(p: str, vid: int, eid: int, iid: int, cid: int) -> list[tuple]:
 
 def editor_status(method: str, path: str) -> int:
     """What an editor gets, in the matrix's order: success, or the 409 the state explains (the
-    project is not empty for import, the job ended, the editor's own reconstruct is queued), or
-    the 422 of applying the matrix's empty edit set, or the 403 of reviewing the edit set the
-    editor saved earlier in the matrix (nobody reviews their own)."""
+    project is not empty for import, the job ended, the editor's own reconstruct is queued, the
+    image a version uses), or the 422 of applying the matrix's empty edit set, or the 403 of
+    reviewing the edit set the editor saved earlier in the matrix (nobody reviews their own)."""
     if path.endswith("/apply"):
         return 422
     if path.endswith("/reviews"):
         return 403
-    if path.endswith(("/import", "/cancel", "/restore")):
-        return 409
+    if path.endswith(("/import", "/cancel", "/restore")) or (method == "DELETE" and "/images/" in path):
+        return 409  # ... and the image is used by the version
     if method == "POST":
         return {"/reconstruct": 202, "/rebase": 200, "/presence": 200, "/submit": 200,
                 "/publish": 200}.get(path[path.rindex("/"):], 201)

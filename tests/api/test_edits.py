@@ -198,6 +198,9 @@ def test_rebase_carries_a_stale_edit_set_onto_the_head_and_reports_what_it_dropp
     job = client.post(url(s, f"/{first['id']}/apply"), json={"remap": False}, headers=s.owner).json()
     assert runner.run_job(sessions, settings, job["id"]) == "succeeded"
     head = client.get(f"/api/v1/projects/{s.pid}", headers=s.owner).json()["head_version_id"]
+    assert client.get(url(s, f"/{first['id']}"), headers=s.owner).json()["applied_version_id"] == head
+    again = client.post(url(s, f"/{first['id']}/rebase"), headers={**s.owner, "If-Match": "1"})
+    assert again.status_code == 409 and "applied already" in again.json()["detail"]  # not carried twice
     extra = Image(project_id=s.pid, name="zz-extra.jpg", width=8, height=8, seq=99)
     session.add(extra)
     session.commit()

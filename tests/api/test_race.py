@@ -90,7 +90,7 @@ def race(base: str, owner: dict, url: str, vid: int, revision: int) -> list[tupl
     return results
 
 
-def test_same_revision_at_once_one_200_the_rest_409(live, committed_database):
+def test_same_revision_at_once_one_200_the_rest_409(live):
     base, owner, url, vid = live
     started = time.monotonic()
     for round_number in range(ROUNDS):

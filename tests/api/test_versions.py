@@ -200,3 +200,21 @@ def test_compare_aligns_on_the_cameras_no_edit_moved(client, reconstructed, sess
         moved = {name for name, c in by_name.items() if c["moved"] > 0.05 * float(extent.max())}
         assert moved == run, (a, b, sorted(moved))
         assert max(by_name[n]["moved"] for n in set(names) - run) < 1e-3 * float(extent.max())
+
+
+def test_delete_an_image_no_version_uses_and_refuse_one_a_version_uses(client, reconstructed, settings):
+    from tests.factories import jpeg_bytes
+
+    s = reconstructed
+    base = f"/api/v1/projects/{s.pid}/images"
+    files = [("files", ("zz-late.jpg", jpeg_bytes(), "image/jpeg"))]
+    [late] = client.post(base, files=files, headers=s.owner).json()
+    used = s.image_ids[sorted(s.image_ids)[0]]
+    refused = client.delete(f"{base}/{used}", headers=s.owner)
+    assert refused.status_code == 409 and f"v{s.vid}" in refused.json()["detail"], refused.text
+    assert client.delete(f"{base}/{late['id']}", headers=s.owner).status_code == 204
+    listed = client.get(base, headers=s.owner).json()
+    assert late["id"] not in [i["id"] for i in listed] and used in [i["id"] for i in listed]
+    assert [i["seq"] for i in sorted(listed, key=lambda i: i["seq"])] == list(range(len(listed)))
+    assert not (settings.artifacts_dir / "projects" / str(s.pid) / "images" / "zz-late.jpg").exists()
+    assert client.delete(f"{base}/{late['id']}", headers=s.owner).status_code == 404

@@ -66,11 +66,11 @@ def test_default_rule_cuts_the_tiny_scenes_false_pairs(tiny_workspace_ro, tiny_s
 def a_right_camera(workspace: Workspace, truth) -> int:
     """The first registered camera (by name) the model places right, with four pairs or more, that
     left in place loses none of them (a pair with a wrong partner may go: that is the rule's job)."""
-    wrong = set(evaluation.camera_status(workspace, truth).wrong)
+    wrong = set(evaluation.camera_status(workspace, truth).wrong)  # image names
     pairs = workspace.verified_pairs()
     for camera in sorted((c for c in workspace.scene().cameras if c.registered), key=lambda c: c.name):
         mine = [p for p in pairs if camera.image_id in p]
-        if camera.image_id not in wrong and len(mine) >= 4 \
+        if camera.name not in wrong and len(mine) >= 4 \
                 and one_camera(workspace, camera.image_id)[1].deleted == []:
             return camera.image_id
     raise AssertionError("the tiny scene has no right camera that keeps its pairs in place")

@@ -19,6 +19,8 @@ from pathlib import Path
 import httpx
 import pytest
 
+from tests.required import missing, services_required
+
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync", "--no-first-run"]
@@ -28,13 +30,17 @@ JOB_TIMEOUT_S = 1800  # one reconstruction or apply of the sample on 2 shared co
 TERMINAL = {"succeeded", "failed", "cancelled"}
 
 
+NO_CHROMIUM = f"{CHROMIUM} is missing: the browser tests drive Debian's chromium"
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    if CHROMIUM.exists():
+    """Without Chromium the browser tests skip before starting anything, unless services are
+    required (CI): then the `browser` fixture fails them."""
+    if CHROMIUM.exists() or services_required():
         return
-    skip = pytest.mark.skip(reason=f"{CHROMIUM} is missing: the browser tests drive Debian's chromium")
     for item in items:
         if "browser" in item.keywords:
-            item.add_marker(skip)
+            item.add_marker(pytest.mark.skip(reason=NO_CHROMIUM))
 
 
 @dataclass
@@ -151,6 +157,8 @@ def sample_project(server: Server) -> dict:
 
 @pytest.fixture(scope="session")
 def browser() -> Iterator[object]:
+    if not CHROMIUM.exists():
+        missing(NO_CHROMIUM)
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as playwright:

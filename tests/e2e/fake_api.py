@@ -7,6 +7,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import re
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
@@ -46,6 +47,8 @@ class FakeApi:
         self.older = older or {}
         self.compare_answer = compare
         self.role, self.refuse_edits, self.jobs = role, refuse_edits, list(jobs)
+        self.deleted = False
+        self.uploads: list[list[str]] = []  # file names per upload request
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
@@ -62,7 +65,9 @@ class FakeApi:
             return
         self.log.append((request.method, path))
         status, body = self.answer(request.method, path.removeprefix("/api/v1"), request)
-        if isinstance(body, bytes):
+        if status == 204:
+            route.fulfill(status=204)
+        elif isinstance(body, bytes):
             route.fulfill(status=status, body=body, content_type="image/png")
         else:
             revision = body.get("revision") if isinstance(body, dict) else None
@@ -75,7 +80,7 @@ class FakeApi:
                    "created_at": "2026-01-01T00:00:00Z", "role": self.role, "owner": "fake-owner"}
         routes = {
             ("POST", "/auth/token"): lambda: {"access_token": "fake", "token_type": "bearer"},
-            ("GET", "/projects"): lambda: [project],
+            ("GET", "/projects"): lambda: [] if self.deleted else [project],
             ("GET", "/projects/1"): lambda: project,
             ("GET", "/projects/1/versions"): self.versions,
             ("GET", "/projects/1/members"): lambda: [{"username": "fake-user", "role": "owner"}],
@@ -93,6 +98,11 @@ class FakeApi:
         }
         if (method, path) in routes:
             return 200, routes[(method, path)]()
+        team = {("GET", "/projects/1/comments"): [], ("POST", "/projects/1/presence"): [],
+                ("GET", "/notifications"): [], ("POST", "/notifications/read"): [],
+                ("GET", "/projects/1/activity"): {"items": [], "next_before": None}}
+        if (method, path) in team:  # the team panels (v1.1): nobody else is here
+            return 200, team[(method, path)]
         if path.endswith("/scene"):
             frame = {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0], "up": [0, 0, 1]}
             return 200, {"frame": frame, "cameras": self.cameras_of(version_of(path)),
@@ -108,18 +118,60 @@ class FakeApi:
             return 200, PNG
         if path.startswith("/projects/1/edits") and method in ("POST", "PUT") and self.refuse_edits:
             return 403, {"detail": "your role in project 1 is viewer; this needs editor"}
+        if path.startswith("/projects/1/images/") and method == "DELETE":
+            image_id = int(path.rsplit("/", 1)[1])
+            if any(c["image_id"] == image_id and c["center"] for c in self.cameras):
+                return 409, {"detail": f"image {image_id:04d}.jpg is used by version(s) v{self.head}"}
+            self.cameras = [c for c in self.cameras if c["image_id"] != image_id]
+            return 204, {}
+        if path == "/projects/1" and method == "DELETE":
+            self.deleted = True
+            return 204, {}
+        if path.endswith("/export"):
+            return 200, b"PK fake export"
+        if path == "/projects/1/images" and method == "POST":
+            return self.upload(request)
         if path == "/projects/1/reconstruct" and method == "POST":
             return 409, {"detail": "a job of project 1 is queued or running"}
         if path == "/projects/1/edits" and method == "POST":
             self.edit = {**request.post_data_json, "id": 1, "revision": 1, "updated_by": "fake-user",
                          "updated_at": "2026-01-01T00:00:00Z"}
             return 201, self.edit
+        if path == "/projects/1/edits/1/rebase" and method == "POST":
+            return self.rebase(request)
         if path == "/projects/1/edits/1" and method == "PUT":
             if request.headers.get("if-match", "").strip('"') != str(self.edit["revision"]):
                 return 409, {"detail": "edit set 1 was saved by someone else"}
             self.edit = {**self.edit, **request.post_data_json, "revision": self.edit["revision"] + 1}
             return 200, self.edit
         return 404, {"detail": f"the fake API has no {method} {path}"}
+
+    def upload(self, request) -> tuple[int, object]:
+        """All or nothing, as the server: a file whose name starts with "bad" fails the request."""
+        names = re.findall(r'filename="([^"]+)"', request.post_data_buffer.decode("latin-1"))
+        self.uploads.append(names)
+        bad = [n for n in names if n.startswith("bad")]
+        if bad:
+            return 422, {"detail": f"{bad[0]}: not a readable JPEG or PNG image (cannot identify image file)"}
+        return 201, [{"id": 100 + i, "name": n, "width": 8, "height": 8, "seq": i}
+                     for i, n in enumerate(names)]
+
+    def rebase(self, request) -> tuple[int, dict]:
+        """Carry the edit set onto the head: cameras on the head's images, deletions of its pairs."""
+        if request.headers.get("if-match", "").strip('"') != str(self.edit["revision"]):
+            return 409, {"detail": "edit set 1 was saved by someone else"}
+        images = {c["image_id"] for c in self.cameras_of(self.head)}
+        old, cameras = self.edit, [c for c in self.edit["cameras"] if c["image_id"] in images]
+        pairs = [p for p in old["delete_pairs"] if tuple(sorted(p)) in self.pairs]
+        dropped = [{"kind": "camera", "image_ids": [c["image_id"]], "reason": f"not part of v{self.head}"}
+                   for c in old["cameras"] if c not in cameras]
+        dropped += [{"kind": "delete_pair", "image_ids": p, "reason": f"v{self.head} does not match it"}
+                    for p in old["delete_pairs"] if p not in pairs]
+        self.edit = {**old, "base_version_id": self.head, "cameras": cameras, "delete_pairs": pairs,
+                     "revision": old["revision"] + 1}
+        carried = {"cameras": [c["image_id"] for c in cameras], "delete_pairs": pairs, "flags": old["flags"]}
+        return 200, {**self.edit, "report": {"from_version": old["base_version_id"], "to_version": self.head,
+                                             "carried": carried, "dropped": dropped}}
 
     def versions(self) -> list[dict]:
         stats = {"num_images": 6, "num_registered": 5, "num_models": 1, "num_pairs": 7, "num_points": 28}

@@ -9,7 +9,7 @@ import json
 import pytest
 
 from tests.e2e.conftest import shot
-from tests.e2e.fake_api import FakeApi
+from tests.e2e.fake_api import ORIGIN, FakeApi
 from tests.e2e.test_editor_offline import open_fake
 
 pytestmark = pytest.mark.browser
@@ -76,7 +76,8 @@ def test_fit_frames_the_cameras(page, stray):
 WRITE_CONTROLS = ["#apply-button", "#preview-button", "#undo", "#redo", "#flag-button", "#place-button",
                   "#reset-button", "#delete-matching", "#keep-matching", "#rule-select", "#fov-slider",
                   "#range-slider", "#upload-form button[type=submit]", "#upload-form input[type=file]",
-                  "#reconstruct-button", "#version-list button[data-action=restore]", "#member-form button"]
+                  "#reconstruct-button", "#version-list button[data-action=restore]", "#member-form button",
+                  "#match-list input", "#delete-images"]
 
 
 def usable(page, selector: str) -> list[str]:
@@ -109,7 +110,7 @@ def test_a_viewer_gets_no_control_it_cannot_use(page):
     page.mouse.up()
     assert page.get_attribute("#scene", "data-moved") == ""
     changes = [e for e in fake.log if e[0] in ("POST", "PUT", "DELETE") and "/projects/" in e[1]]
-    assert [e for e in changes if not e[1].endswith("/presence")] == []  # a viewer reports presence (v1.1)
+    assert [e for e in changes if not e[1].endswith("/presence")] == []  # a viewer may post presence
     shot(page, "team-viewer")
 
 
@@ -235,3 +236,202 @@ def test_nothing_carries_over_from_one_project_to_the_next(page):
     page.wait_for_selector("body[data-ready='1/1']")
     assert page.input_value("#member-form input[name=username]") == ""
     assert page.inner_text("#job-text") == "No job."
+
+
+def stale_edit(base: int) -> dict:
+    """An edit set saved on an older version: camera 2 moved, camera 9 (gone since) placed, the
+    pair (1, 2) and a pair the head no longer matches deleted."""
+    return {"id": 1, "revision": 3, "base_version_id": base, "updated_by": "fake-user",
+            "updated_at": "2026-01-01T00:00:00Z", "rule": "default", "flags": [],
+            "cameras": [{"image_id": 2, "x": 1.2, "y": 0.3, "yaw_deg": 90.0, "fov_deg": 60.0, "range": 2.0},
+                        {"image_id": 9, "x": 0.0, "y": 1.0, "yaw_deg": 0.0, "fov_deg": 60.0, "range": 2.0}],
+            "delete_pairs": [[1, 2], [1, 5]]}
+
+
+def test_a_stale_edit_set_is_rebased_onto_the_head_with_a_report(page):
+    """The head moved on (v2) while edits sat on v1: opening the head carries them over and says
+    what was carried and what could not be; the move is on screen, not lost."""
+    fake = FakeApi(head=2)
+    fake.edit = stale_edit(1)
+    open_fake(page, fake)
+    page.wait_for_selector("#notice:has-text('carried onto the head v2')")
+    text = page.inner_text("#notice")
+    assert "1 camera(s), 1 deletion(s)" in text and "Not carried" in text, text
+    assert "camera #9" in text and "delete pair 0001.jpg–0005.jpg" in text, text
+    assert fake.edit["base_version_id"] == 2 and fake.edit["revision"] == 4
+    assert ("POST", "/api/v1/projects/1/edits/1/rebase") in fake.log
+    assert page.get_attribute("#scene", "data-moved") == "2"
+    shot(page, "team-rebase")
+
+
+def open_second_tab(page, fake: FakeApi):
+    """A second page of the same browser (signed in already, sharing the fake server)."""
+    other = page.context.new_page()
+    fake.install(other)
+    other.goto(f"{ORIGIN}/#/p/1")
+    other.wait_for_selector(f"body[data-ready='1/{fake.head}']")
+    return other
+
+
+def move(page, image_id: int, key: str = "Shift+ArrowUp") -> None:
+    page.locator(f"#strip .thumb[data-id='{image_id}']").click()
+    page.locator("#scene").focus()
+    page.keyboard.press(key)
+    page.wait_for_selector("#cut-counter[data-state=ready]")
+
+
+def test_two_tabs_never_drop_a_change_silently(page, console):
+    """Tab B opens before tab A saves anything; both then move different cameras, each from its
+    own stale copy. Every move ends up in the one edit set, and each merge is announced."""
+    console.allow.append("409")  # tab A's stale save, expected
+    fake = FakeApi()
+    open_fake(page, fake)
+    other = open_second_tab(page, fake)
+    move(page, 2)  # tab A creates the edit set
+    move(other, 4)  # tab B knew of none: it joins A's instead of starting a second one
+    other.wait_for_selector("#notice:has-text('merged into them')")
+    assert sorted(c["image_id"] for c in fake.edit["cameras"]) == [2, 4]
+    move(page, 3)  # tab A's copy is stale (B saved revision 2): a 409, merged and saved again
+    page.wait_for_selector("#notice:has-text('merged onto theirs')")
+    assert sorted(c["image_id"] for c in fake.edit["cameras"]) == [2, 3, 4]
+    assert sorted(page.get_attribute("#scene", "data-moved").split(",")) == ["2", "3", "4"]
+    other.close()
+
+
+def test_a_new_head_made_elsewhere_is_noticed_and_the_edits_follow_it(page):
+    """Someone else's apply makes v2 the head while this page edits v1: the page notices within
+    its polling period, offers to reload, and reloading carries the edits onto v2."""
+    fake = FakeApi(head=1)
+    open_fake(page, fake)
+    move(page, 2)
+    fake.head = 2  # made elsewhere
+    page.wait_for_selector("#banner:has-text('new head')", timeout=25_000)
+    page.get_by_role("button", name="Reload onto the new head").click()
+    page.wait_for_selector("body[data-ready='1/2']")
+    page.wait_for_selector("#notice:has-text('carried onto the head v2')")
+    assert fake.edit["base_version_id"] == 2 and page.get_attribute("#scene", "data-moved") == "2"
+
+
+def test_delete_image_export_a_version_and_delete_the_project_from_the_ui(page, console):
+    """The Images panel deletes the selected images (the server keeps one a version uses and
+    says why), each version row exports COLMAP or PLY, the project list deletes a project."""
+    console.allow.append("409")
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='2']").click()
+    page.locator("#strip .thumb[data-id='6']").click(modifiers=["Control"])
+    page.locator("#images-panel summary").click()
+    page.once("dialog", lambda d: d.accept())
+    page.get_by_role("button", name="Delete selected images").click()
+    page.wait_for_selector("#upload-status:has-text('0006.jpg deleted')")
+    status = page.inner_text("#upload-status")
+    assert "0002.jpg kept: image 0002.jpg is used by version(s) v1" in status, status
+    assert ("DELETE", "/api/v1/projects/1/images/6") in fake.log
+    assert 6 not in [c["image_id"] for c in fake.cameras]
+
+    page.locator("#versions-panel summary").click()
+    row = page.locator("#version-list li[data-version-id='1']")
+    with page.expect_download() as download:
+        row.get_by_role("button", name="Export COLMAP").click()
+    assert download.value.suggested_filename == "fake-v1.zip"
+    assert ("GET", "/api/v1/projects/1/versions/1/export") in fake.log
+
+    page.evaluate("location.hash = '#/'")
+    page.wait_for_selector("body[data-ready=projects]")
+    questions = []
+    page.once("dialog", lambda d: (questions.append(d.message), d.accept()))
+    page.locator("#project-list li[data-project-id='1']").get_by_role("button", name="Delete").click()
+    page.wait_for_selector("#project-list:has-text('No projects yet')")
+    assert ("DELETE", "/api/v1/projects/1") in fake.log and "cannot be undone" in questions[0]
+
+
+def test_an_upload_goes_in_batches_and_one_bad_file_costs_only_itself(page, console, tmp_path):
+    """Ten files, one bad: the first batch of eight is refused whole (all or nothing), so it is
+    sent again file by file; nine images are stored and the bad one is named, without a path."""
+    console.allow.append("422")
+    fake = FakeApi()
+    open_fake(page, fake)
+    names = [f"{i:02d}.jpg" for i in range(9)] + ["bad-03.jpg"]
+    names[3], names[9] = names[9], names[3]
+    for name in names:
+        (tmp_path / name).write_bytes(b"\xff\xd8 not really a jpeg")
+    page.locator("#images-panel summary").click()
+    page.set_input_files("#upload-form input[type=file]", [str(tmp_path / n) for n in names])
+    page.get_by_role("button", name="Upload", exact=True).click()
+    page.wait_for_selector("#images-panel[data-uploaded='9'][data-refused='1']")
+    status = page.inner_text("#upload-status")
+    assert status.startswith("Uploaded 9 images.") and "Not uploaded: bad-03.jpg: not a readable" in status
+    assert "/" not in status and page.locator("#upload-progress").is_visible()
+    assert [len(batch) for batch in fake.uploads] == [8, 1, 1, 1, 1, 1, 1, 1, 1, 2]
+
+
+def test_an_absurd_placement_is_warned_and_question_mark_opens_the_keys(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='5']").click()
+    page.locator("#scene").focus()
+    page.keyboard.press("Shift+ArrowUp")  # 0.5 units: nothing to say
+    assert page.locator("#placement-warning").is_hidden()
+    for _ in range(20):
+        page.keyboard.press("Shift+ArrowUp")  # 10.5 units from its partners, range 2
+    warning = page.locator("#placement-warning")
+    warning.wait_for(state="visible")
+    assert "0005.jpg" in warning.inner_text() and "Check the placement" in warning.inner_text()
+    page.keyboard.press("?")
+    assert page.locator("#keys-panel").get_attribute("open") is not None
+    assert "Shift+wheel" in page.inner_text("#keys-panel")
+
+
+def test_an_applied_edit_set_is_not_carried_onto_the_head_it_made(page):
+    fake = FakeApi(head=2)
+    fake.edit = {**stale_edit(1), "applied_version_id": 2}
+    open_fake(page, fake)
+    assert ("POST", "/api/v1/projects/1/edits/1/rebase") not in fake.log
+    assert page.get_attribute("#scene", "data-moved") == "" and fake.edit["base_version_id"] == 1
+
+
+def test_hovering_a_selected_camera_keeps_it_shown_as_selected(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='3']").click()
+    page.locator("#strip .thumb[data-id='3']").hover()
+    page.wait_for_function("document.querySelector('#scene').dataset.hovered === '3'")
+    scale = view(page)[2]
+    *centre, _ = pixel(page, 2.0, 0.0)  # camera 3 sits at (2, 0)
+    *ring, _ = pixel(page, 2.0 - 8 / scale, 0.0)
+    assert max(abs(a - b) for a, b in zip(centre, (0xDD, 0x6B, 0x20), strict=True)) < 40, centre  # selected
+    assert max(abs(a - b) for a, b in zip(ring, (0x00, 0xA3, 0xC4), strict=True)) < 60, ring  # hover ring
+
+
+def test_a_known_distance_makes_the_scale_bar_speak_metres(page):
+    """Cameras 1 and 3 are 2 units apart; told they are 10 m apart, the bar is labelled in metres
+    and its length in units is the metres over 5; the setting outlives a reload of the page."""
+    fake = FakeApi()
+    open_fake(page, fake)
+    assert page.get_attribute("#scene", "data-scale-label").endswith(("unit", "units"))
+    page.locator("#strip .thumb[data-id='1']").click()
+    page.locator("#strip .thumb[data-id='3']").click(modifiers=["Control"])
+    questions = []
+    page.once("dialog", lambda d: (questions.append(d.message), d.accept("10")))
+    page.get_by_role("button", name="Set scale…").click()
+    page.wait_for_function("document.querySelector('#scene').dataset.scaleLabel.endsWith(' m')")
+    label = page.get_attribute("#scene", "data-scale-label")
+    length = float(page.get_attribute("#scene", "data-scale-bar"))
+    assert "0001.jpg and 0003.jpg" in questions[0] and "2.00 units apart" in questions[0]
+    assert abs(float(label.removesuffix(" m")) - 5 * length) < 1e-6, (label, length)
+    page.reload()
+    page.wait_for_selector("body[data-ready='1/1']")
+    page.wait_for_function("document.querySelector('#scene').dataset.scaleLabel.endsWith(' m')")
+
+
+def test_running_a_reconstruction_that_cuts_nothing_asks_first(page):
+    fake = FakeApi()
+    open_fake(page, fake)
+    move(page, 2, "ArrowUp")  # a small step: the fake rule cuts nothing
+    assert page.get_attribute("#cut-counter", "data-count") == "0"
+    questions = []
+    page.once("dialog", lambda d: (questions.append(d.message), d.dismiss()))
+    page.get_by_role("button", name="Run reconstruction").click()
+    page.wait_for_timeout(300)
+    assert questions and "deletes no pair" in questions[0]
+    assert not [e for e in fake.log if e[1].endswith("/apply")]

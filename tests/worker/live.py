@@ -11,12 +11,12 @@ import sys
 import time
 from pathlib import Path
 
-import pytest
 import redis
 
 from guided_sfm.api.app import create_app
 from guided_sfm.db.session import make_sessionmaker
 from tests.conftest import SECRET, TestClient, make_settings
+from tests.required import missing
 from worker.celery_app import make_celery, submitter
 
 REDIS_URL = os.environ.get("GUIDED_SFM_TEST_REDIS_URL", "redis://127.0.0.1:6379/15")
@@ -27,7 +27,7 @@ def redis_or_skip() -> str:
     try:
         redis.Redis.from_url(REDIS_URL, socket_connect_timeout=2).ping()
     except redis.RedisError as exc:
-        pytest.skip(f"Redis at {REDIS_URL} is unreachable ({exc}); the Redis worker test needs it")
+        missing(f"Redis at {REDIS_URL} is unreachable ({exc}); the Redis worker test needs it")
     return REDIS_URL
 
 

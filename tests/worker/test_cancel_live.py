@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import time
 
-import pytest
-
 from guided_sfm.storage import ArtifactStore
 from tests.factories import make_project, signup
 from tests.worker.live import upload
@@ -15,12 +13,8 @@ from tests.worker.live import upload
 HEARTBEAT_S = 0.5  # the flag reaches the token within this (plus a busy database's retry)
 
 
-def test_cancel_reaches_a_running_worker_and_keeps_the_head(service_factory, tiny_images, request):
+def test_cancel_reaches_a_running_worker_and_keeps_the_head(service_factory, tiny_images):
     service = service_factory("filesystem://", heartbeat_seconds=HEARTBEAT_S)
-    if service.settings.database_url.startswith("sqlite"):
-        request.applymarker(pytest.mark.xfail(strict=False, reason=(
-            "issue 17: on SQLite the API's or the worker's write can meet 'database is locked' "
-            "while the other writes; the Postgres pass must hold")))
     service.start_worker()
     headers = signup(service.client, "alice")
     pid = make_project(service.client, headers)

@@ -2,6 +2,7 @@
 
 import os
 import re
+import select
 import signal
 import socket
 import subprocess
@@ -35,13 +36,24 @@ def gone(pid: int) -> bool:
 
 
 def wait_for(condition, timeout: float, what: str):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+    start = time.monotonic()
+    while time.monotonic() < start + timeout:
         value = condition()
         if value:
+            print(f"{what}: {time.monotonic() - start:.1f} s")
             return value
         time.sleep(0.3)
-    raise AssertionError(f"timed out waiting for {what}")
+    raise AssertionError(f"timed out waiting {timeout} s for {what}")
+
+
+def first_line(process: subprocess.Popen, timeout: float) -> str:
+    """The first line on the process's stdout, failing (not hanging) if none comes in time."""
+    start = time.monotonic()
+    ready, _, _ = select.select([process.stdout], [], [], timeout)
+    assert ready, f"no line from {process.args[2:4]} within {timeout} s (exit code {process.poll()})"
+    line = process.stdout.readline()
+    print(f"first line after {time.monotonic() - start:.1f} s: {line.strip()!r}")
+    return line
 
 
 def test_serve_supervises_api_and_worker(tmp_path):
@@ -51,18 +63,20 @@ def test_serve_supervises_api_and_worker(tmp_path):
                               "--data-dir", str(tmp_path / "data")], env=env, stdout=subprocess.PIPE,
                              stderr=subprocess.DEVNULL, text=True)
     try:
-        assert serve.stdout.readline().strip() == f"URL: http://127.0.0.1:{port}/"
+        assert first_line(serve, 120).strip() == f"URL: http://127.0.0.1:{port}/"
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/v1/health", timeout=5) as response:
             assert response.status == 200
         assert (tmp_path / "data" / "guided_sfm.db").is_file()  # embedded default: SQLite in the data dir
-        first = wait_for(lambda: children(serve.pid).get("worker"), 30, "the worker")
+        first = wait_for(lambda: children(serve.pid).get("worker"), 120, "the worker")
         os.killpg(first, signal.SIGKILL)
         second = wait_for(lambda: (children(serve.pid).get("worker") or first) != first
-                          and children(serve.pid)["worker"], 30, "a restarted worker")
+                          and children(serve.pid)["worker"], 120, "a restarted worker")
         assert second != first
         api = children(serve.pid)["api"]
         serve.send_signal(signal.SIGTERM)
-        assert serve.wait(timeout=60) == 0
+        stopping = time.monotonic()
+        assert serve.wait(timeout=120) == 0
+        print(f"stopped on SIGTERM in {time.monotonic() - stopping:.1f} s")
         assert gone(api) and gone(second)
     finally:
         if serve.poll() is None:

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 
 from guided_sfm.actions import uploads
 from guided_sfm.actions.context import NewImage
+from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Image, Project
 from guided_sfm.errors import Conflict
@@ -36,6 +37,24 @@ def upload(session: Session, store: ArtifactStore, project: Project,
                 path.unlink(missing_ok=True)
             raise
     return rows
+
+
+def delete(session: Session, store: ArtifactStore, image: Image) -> None:
+    """Remove an image no version uses (row, file, thumbnail); Conflict naming the versions that do."""
+    if queries.active_job(session, image.project_id) is not None:
+        raise Conflict(f"a job of project {image.project_id} is queued or running; delete images after it")
+    users = [f"v{v.id}" for v in queries.versions(session, image.project_id)
+             if image.name in Workspace(store.version_dir(v.path)).image_ids()]
+    if users:
+        raise Conflict(f"image {image.name} is used by version(s) {', '.join(users)}; "
+                       "only an image no version uses can be deleted")
+    project_id, name, thumb = image.project_id, image.name, store.thumbnail(image.project_id, image.id)
+    session.delete(image)
+    session.flush()
+    renumber(session, project_id)
+    session.commit()
+    store.image_file(project_id, name).unlink(missing_ok=True)
+    thumb.unlink(missing_ok=True)
 
 
 def _insert(session: Session, project_id: int, checked: list[NewImage]) -> list[Image]:

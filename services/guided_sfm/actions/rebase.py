@@ -11,6 +11,7 @@ from guided_sfm.actions import edit_sets
 from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.types import pair_key
 from guided_sfm.core.workspace import Workspace
+from guided_sfm.db import queries
 from guided_sfm.db.models import EditSetRow, Project, Version
 from guided_sfm.errors import Conflict
 from guided_sfm.storage import ArtifactStore
@@ -24,6 +25,10 @@ def rebase(session: Session, store: ArtifactStore, project: Project, row: EditSe
     if head is None:
         raise Conflict(f"project {project.id} has no head version to rebase onto")
     old = row.base_version_id
+    made = queries.applied_revisions(session, project.id).get((row.id, row.revision))
+    if made is not None:
+        raise Conflict(f"edit set {row.id} (revision {row.revision}) was applied already, making "
+                       f"version {made}; it is not carried onto the head again")
     if old == head:
         return row, {"from_version": old, "to_version": head, "carried": _all(row.body), "dropped": []}
     body, report = carry(row.body, _head_view(session, store, project.id, head), head)

@@ -30,6 +30,7 @@ from guided_sfm.api.routes import (
     versions,
     webhooks,
 )
+from guided_sfm.api.schemas import InvalidOut
 from guided_sfm.api.throttle import Throttle
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
@@ -43,7 +44,8 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     `readiness()` names what is down of the broker and the workers (worker.health.readiness)."""
     settings = settings.with_secret()
     app = FastAPI(title="Guided SfM", version="1", openapi_url="/openapi.json",
-                  docs_url="/docs", redoc_url=None)
+                  docs_url="/docs", redoc_url=None,  # 422 as errors.py answers it, not FastAPI's list
+                  responses={422: {"model": InvalidOut, "description": "Invalid request"}})
     app.state.settings = settings
     app.state.sessions = sessions or make_sessionmaker(settings)
     app.state.store = ArtifactStore(settings.artifacts_dir)

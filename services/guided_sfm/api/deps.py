@@ -146,6 +146,7 @@ def found_in_project(model: type[InProject], param: str, needed: str) -> Callabl
 
 
 ViewerImage = Annotated[Image, Depends(found_in_project(Image, "image_id", "viewer"))]
+EditorImage = Annotated[Image, Depends(found_in_project(Image, "image_id", "editor"))]
 ViewerVersion = Annotated[Version, Depends(found_in_project(Version, "vid", "viewer"))]
 EditorVersion = Annotated[Version, Depends(found_in_project(Version, "vid", "editor"))]
 ViewerEditSet = Annotated[EditSetRow, Depends(found_in_project(EditSetRow, "eid", "viewer"))]

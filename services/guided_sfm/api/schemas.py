@@ -32,6 +32,18 @@ class In(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
+class ProblemOut(BaseModel):
+    loc: list[str | int]
+    msg: str
+
+
+class InvalidOut(BaseModel):
+    """A 422 as api/errors.py writes it: one sentence, and the problems when validation found them."""
+
+    detail: str
+    errors: list[ProblemOut] = Field(default_factory=list)
+
+
 class UserCreate(In):
     username: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.@-]+$")
     password: Text = Field(min_length=8, max_length=256)
@@ -236,6 +248,7 @@ class EditSetOut(Out):
     tolerances: dict[str, float]
     updated_by: str | None
     updated_at: datetime
+    applied_version_id: int | None = None  # the version an apply of this revision made, if any
     author: str | None = None
     review_state: str = "draft"
     reviews: list[ReviewOut] = Field(default_factory=list)

@@ -73,6 +73,13 @@ def versions(session: Session, project_id: int) -> list[Version]:
     return list(session.scalars(select(Version).where(Version.project_id == project_id).order_by(Version.id)))
 
 
+def applied_revisions(session: Session, project_id: int) -> dict[tuple[int, int], int]:
+    """(edit set id, revision) -> the version its succeeded apply job made."""
+    jobs = session.scalars(select(Job).where(Job.project_id == project_id, Job.kind == "apply",
+                                             Job.state == "succeeded", Job.version_id.is_not(None)))
+    return {(job.params.get("edit_set_id"), job.params.get("revision")): job.version_id for job in jobs}
+
+
 def edit_sets(session: Session, project_id: int) -> list[EditSetRow]:
     query = select(EditSetRow).where(EditSetRow.project_id == project_id).order_by(EditSetRow.id)
     return list(session.scalars(query))

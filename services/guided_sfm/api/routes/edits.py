@@ -34,11 +34,13 @@ from guided_sfm.db.models import EditSetRow, Review, Version
 router = APIRouter(prefix="/projects/{pid}/edits", tags=["edits"])
 
 
-def out(row: EditSetRow, response: Response | None = None) -> EditSetOut:
+def out(row: EditSetRow, response: Response | None = None,
+        applied: dict[tuple[int, int], int] | None = None) -> EditSetOut:
     if response is not None:
         response.headers["ETag"] = f'"{row.revision}"'
     return EditSetOut(id=row.id, revision=row.revision, updated_at=row.updated_at,
                       updated_by=row.updated_by.username if row.updated_by else None,
+                      applied_version_id=(applied or {}).get((row.id, row.revision)),
                       author=row.created_by.username if row.created_by else None,
                       review_state=row.review_state, reviews=[review_out(r) for r in row.reviews],
                       **{k: v for k, v in row.body.items() if k in EditSetIn.model_fields})
@@ -65,12 +67,13 @@ def create(body: EditSetIn, project: EditorProject, session: SessionDep, user: C
 
 @router.get("", response_model=list[EditSetOut])
 def list_edit_sets(project: ViewerProject, session: SessionDep) -> list[EditSetOut]:
-    return [out(row) for row in queries.edit_sets(session, project.id)]
+    applied = queries.applied_revisions(session, project.id)
+    return [out(row, applied=applied) for row in queries.edit_sets(session, project.id)]
 
 
 @router.get("/{eid}", response_model=EditSetOut)
-def read(row: ViewerEditSet, response: Response) -> EditSetOut:
-    return out(row, response)
+def read(row: ViewerEditSet, session: SessionDep, response: Response) -> EditSetOut:
+    return out(row, response, queries.applied_revisions(session, row.project_id))
 
 
 @router.put("/{eid}", response_model=EditSetOut)
@@ -122,8 +125,11 @@ def add_review(row: EditorEditSet, project: EditorProject, session: SessionDep, 
 
 @router.post("/{eid}/rebase", response_model=RebaseOut)
 def rebase_onto_head(row: EditorEditSet, project: EditorProject, session: SessionDep, user: CurrentUser,
-                     store: StoreDep, response: Response,
+                     store: StoreDep, response: Response, actor: ActorDep,
                      if_match: Annotated[str | None, Header()] = None) -> RebaseOut:
     """Carry the edit set onto the head (If-Match: its revision); the report says what was kept."""
+    before = row.revision
     row, report = rebase.rebase(session, store, project, row, if_match, user.id)
+    if row.revision != before:
+        saved(session, row, actor)
     return RebaseOut(**out(row, response).model_dump(), report=report)

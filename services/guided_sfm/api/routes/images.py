@@ -1,14 +1,15 @@
-"""Images: upload (JPEG/PNG or one zip of them), list, thumbnail, original file."""
+"""Images: upload (JPEG/PNG or one zip of them), list, thumbnail, original file, delete."""
 
 from typing import Annotated
 
-from fastapi import APIRouter, File, UploadFile
+from fastapi import APIRouter, File, Response, UploadFile
 from fastapi.responses import FileResponse
 
 from guided_sfm.actions import images as image_actions
 from guided_sfm.actions.activity import record
 from guided_sfm.api.deps import (
     ActorDep,
+    EditorImage,
     EditorProject,
     PageDep,
     SessionDep,
@@ -49,3 +50,10 @@ def thumbnail(image: ViewerImage, store: StoreDep) -> FileResponse:
 @router.get("/{image_id}/file", response_class=FileResponse)
 def original(image: ViewerImage, store: StoreDep) -> FileResponse:
     return FileResponse(store.image_file(image.project_id, image.name), filename=image.name)
+
+
+@router.delete("/{image_id}", status_code=204)
+def delete_image(image: EditorImage, session: SessionDep, store: StoreDep) -> Response:
+    """204 when no version uses the image, else 409 naming the versions (design.md v1.1)."""
+    image_actions.delete(session, store, image)
+    return Response(status_code=204)
