@@ -220,6 +220,7 @@ def review_and_apply(ana, ben, server: Server, pid: int) -> None:
     look_in_3d(ana)
     head = server.get(f"/projects/{pid}")["head_version_id"]
     ana.fill("#apply-message", "camera 3 back on the north wall")
+    ana.once("dialog", lambda dialog: dialog.accept())  # the small move cuts no pair: the editor asks
     ana.click("#apply-button")
     ana.wait_for_function("h => !(document.body.dataset.ready || '').endsWith('/' + h)", arg=str(head),
                           timeout=300_000)
