@@ -6,6 +6,7 @@ activity and each other's presence; a comment holding markup is shown as text.""
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -113,10 +114,13 @@ def open_as(browser, server: Server, name: str, pid: int) -> tuple[object, Conso
 
 
 def shot(page, name: str) -> None:
+    """A screenshot under test-artifacts/; with GSFM_DOCS_SHOTS=1 also into docs/img (the ones
+    the README shows), so an ordinary run leaves the tree as it was."""
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=ARTIFACTS / f"{name}.png")
-    DOCS.mkdir(parents=True, exist_ok=True)
-    shutil.copy(ARTIFACTS / f"{name}.png", DOCS / f"{name}.png")
+    if os.environ.get("GSFM_DOCS_SHOTS") == "1":
+        DOCS.mkdir(parents=True, exist_ok=True)
+        shutil.copy(ARTIFACTS / f"{name}.png", DOCS / f"{name}.png")
 
 
 def pin_pixel(page, image_id: int | str) -> tuple[int, int, int]:
