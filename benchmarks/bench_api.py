@@ -1,7 +1,9 @@
 """Load benchmark of the REST API: N concurrent clients, half polling a job's status and half
 reading a version's scene, each pacing itself to one request per --pace seconds (50 clients at
-0.5 s offer 100 requests/s), then the same clients with no pause (throughput); and, with
---login-flood N, how long `GET /projects` takes while N logins with wrong passwords run at once.
+0.5 s offer 100 requests/s), then the same clients with no pause (throughput); beside them --team
+members (signed up and made viewers) polling presence and their unread notifications as the
+editor does (one request per --team-pace seconds each); and, with --login-flood N, how long
+`GET /projects` takes while N logins with wrong passwords run at once.
 
     python benchmarks/bench_api.py                       # starts `guided-sfm serve --sample` in a temp dir
     python benchmarks/bench_api.py --data-dir /tmp/bench     # the same, kept for a quicker rerun
@@ -38,8 +40,10 @@ def percentile(values: list[float], q: float) -> float:
 def start_server(data_dir: Path, port: int) -> tuple[subprocess.Popen, str, str]:
     command = [sys.executable, "-m", "guided_sfm.cli", "serve", "--sample", "--port", str(port),
                "--data-dir", str(data_dir)]
+    # the team members sign up and log in from this one address: above the login throttle's default
+    env = {**os.environ, "GUIDED_SFM_LOGIN_ATTEMPTS_PER_ADDRESS": "1000"}
     server = subprocess.Popen(command, stdout=subprocess.PIPE, text=True, stderr=subprocess.DEVNULL,
-                              start_new_session=True)
+                              start_new_session=True, env=env)
     lines = [server.stdout.readline().strip() for _ in range(3)]
     values = dict(line.split(": ", 1) for line in lines)
     return server, values["Username"], values["Password"]
@@ -74,20 +78,49 @@ async def one_client(base: str, headers: dict, route: str, until: float, pace: f
                 await asyncio.sleep(pace - elapsed)
 
 
+TeamRoute = tuple[str, str, dict | None]  # method, path, JSON body
+
+
+async def team_client(base: str, headers: dict, routes: list[TeamRoute], until: float, pace: float,
+                      results: dict) -> None:
+    """One member's editor: presence, then notifications, then presence again, ..."""
+    async with httpx.AsyncClient(base_url=base, headers=headers, timeout=60) as client:
+        index = 0
+        while time.monotonic() < until:
+            method, path, body = routes[index % len(routes)]
+            index += 1
+            started = time.perf_counter()
+            try:
+                ok = (await client.request(method, path, json=body)).status_code == 200
+            except httpx.HTTPError:
+                ok = False
+            elapsed = time.perf_counter() - started
+            results[f"{method} {path}"]["ms"].append(elapsed * 1000)
+            results[f"{method} {path}"]["errors"] += 0 if ok else 1
+            if pace > elapsed:
+                await asyncio.sleep(pace - elapsed)
+
+
 async def load(base: str, headers: dict, routes: list[str], clients: int, seconds: float,
-               pace: float) -> dict:
-    """Client i reads routes[i % len(routes)] only: half the clients on each route."""
+               pace: float, team: tuple[list[dict], list[TeamRoute], float] = ([], [], 0.0)) -> dict:
+    """Client i reads routes[i % len(routes)] only: half the clients on each route; each member of
+    `team` (their headers, the routes they cycle through, their pace) polls beside them."""
+    members, team_routes, team_pace = team
     results = {route: {"ms": [], "errors": 0} for route in routes}
+    results.update({f"{m} {p}": {"ms": [], "errors": 0} for m, p, _ in team_routes if members})
     until = time.monotonic() + seconds
     await asyncio.gather(*(one_client(base, headers, routes[i % len(routes)], until, pace, results)
-                           for i in range(clients)))
+                           for i in range(clients)),
+                         *(team_client(base, member, team_routes, until, team_pace, results)
+                           for member in members))
     report = {}
     for route, data in results.items():
         report[route] = {"requests": len(data["ms"]), "errors": data["errors"],
                          "p50_ms": round(percentile(data["ms"], 0.5), 1),
                          "p99_ms": round(percentile(data["ms"], 0.99), 1)}
     total = sum(r["requests"] for r in report.values())
-    return {"clients": clients, "seconds": seconds, "pace_s": pace, "requests": total,
+    return {"clients": clients, "team_members": len(members), "seconds": seconds, "pace_s": pace,
+            "requests": total,
             "errors": sum(r["errors"] for r in report.values()),
             "throughput_rps": round(total / seconds, 1), "routes": report,
             "load_average": [round(x, 2) for x in os.getloadavg()]}
@@ -112,6 +145,24 @@ async def login_flood(base: str, headers: dict, logins: int) -> dict:
             "get_projects_ms": round(ms, 1), "load_average": [round(x, 2) for x in os.getloadavg()]}
 
 
+def sign_up_members(url: str, owner: dict, pid: int, count: int) -> list[dict]:
+    """`count` users (signed up once, reused by a rerun), each a viewer of the project: their headers."""
+    headers = []
+    with httpx.Client(base_url=url, timeout=60) as client:
+        for n in range(count):
+            account = {"username": f"bench-member-{n}", "password": "bench-member-password"}
+            client.post("/api/v1/users", json=account)  # 409 when an earlier run made it
+            client.put(f"/api/v1/projects/{pid}/members/{account['username']}", json={"role": "viewer"},
+                       headers=owner).raise_for_status()
+            answer = client.post("/api/v1/auth/token", data=account)
+            if answer.status_code == 429:
+                raise SystemExit("the login throttle refused the members' logins: run the server with "
+                                 "GUIDED_SFM_LOGIN_ATTEMPTS_PER_ADDRESS above 2 x --team")
+            token = answer.json()["access_token"]
+            headers.append({"Authorization": f"Bearer {token}"})
+    return headers
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -121,6 +172,9 @@ def main() -> int:
     parser.add_argument("--clients", type=int, default=50)
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--pace", type=float, default=0.5, help="seconds per request per client (paced)")
+    parser.add_argument("--team", type=int, default=20, help="members polling presence and notifications")
+    parser.add_argument("--team-pace", type=float, default=5.0,
+                        help="seconds per request per member (the editor: both every 10 s)")
     parser.add_argument("--login-flood", type=int, default=40, help="parallel wrong logins (0: skip)")
     parser.add_argument("--port", type=int, default=8731)
     parser.add_argument("--data-dir", default=None, help="keep the served data here (reused next time)")
@@ -139,7 +193,12 @@ def main() -> int:
             with httpx.Client(base_url=args.url, headers=headers, timeout=60) as client:
                 pid, job_id, vid = wait_for_head(client, args.wait)
             routes = [f"/api/v1/jobs/{job_id}", f"/api/v1/projects/{pid}/versions/{vid}/scene"]
-            report = {phase: asyncio.run(load(args.url, headers, routes, args.clients, args.seconds, pace))
+            members = sign_up_members(args.url, headers, pid, args.team)
+            team_routes = [("POST", f"/api/v1/projects/{pid}/presence", {"version_id": vid}),
+                           ("GET", "/api/v1/notifications?unread=true", None)]
+            team = (members, team_routes, args.team_pace)
+            report = {phase: asyncio.run(load(args.url, headers, routes, args.clients, args.seconds, pace,
+                                              team))
                       for phase, pace in (("paced", args.pace), ("unpaced", 0.0))}
             if args.login_flood:
                 report["login_flood"] = asyncio.run(login_flood(args.url, headers, args.login_flood))

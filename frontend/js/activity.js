@@ -11,7 +11,8 @@ const WORDS = {
 
 export class ActivityPanel {
   constructor(root, { projectId, selection }, signal) {
-    Object.assign(this, { root, projectId, selection });
+    Object.assign(this, { root, projectId, selection, signal });
+    this.ticket = 0;
     this.list = root.querySelector("#activity-list");
     this.more = root.querySelector("#activity-more");
     this.more.addEventListener("click", () => this.load(this.next), { signal });
@@ -21,10 +22,13 @@ export class ActivityPanel {
     }, { signal });
   }
 
-  // The newest page (replacing the list), or the page before `before` (appended).
+  // The newest page (replacing the list), or the page before `before` (appended). An answer that
+  // arrives after a newer request's, or after the page closed, is dropped (the list is shared).
   async load(before = null) {
+    const ticket = ++this.ticket;
     const query = before ? `?limit=30&before=${before}` : "?limit=30";
     const page = await get(`/projects/${this.projectId}/activity${query}`);
+    if (ticket !== this.ticket || this.signal.aborted) return;
     const items = page.items.map((entry) => this.item(entry));
     if (before) this.list.append(...items);
     else this.list.replaceChildren(...items);

@@ -16,6 +16,7 @@ import { adjacency, camerasOf, createStore, pointsOf } from "./state.js";
 import { Strip } from "./strip.js";
 import { DraftSync } from "./sync.js";
 import { TeamPanel } from "./team.js";
+import { View3D } from "./view3d.js";
 import { bindControls } from "./controls.js";
 import { UploadPanel } from "./upload.js";
 import { VersionsPanel } from "./versions.js";
@@ -130,6 +131,7 @@ export class ProjectPage {
       flush: () => this.sync?.flush() }, signal);
     this.activity = new ActivityPanel(this.root.querySelector("#activity-panel"), ctx, signal);
     this.team.afterPoll = () => this.activity.load().catch(() => {});
+    this.view3d = new View3D(this.root, { ...ctx, projectId: this.store.project.id }, signal);
   }
 
   // The scene view draws what the store's events say; it is kept across pages, so it starts clean.
@@ -275,7 +277,8 @@ export class ProjectPage {
     if (!cuts && !window.confirm(question)) return;
     try {
       const path = `/projects/${this.store.project.id}/edits/${this.sync.editId}/apply`;
-      const job = await post(path, { remap: true });
+      const note = this.root.querySelector("#apply-message")?.value.trim();
+      const job = await post(path, note ? { remap: true, message: note } : { remap: true });
       this.notify(`Applying the edits: job ${job.id}.`);
       this.followJob(job);
     } catch (error) {

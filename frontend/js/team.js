@@ -8,7 +8,7 @@ const ROLES = ["viewer", "editor", "owner"];
 
 export class TeamPanel {
   constructor(root, ctx, signal) {
-    Object.assign(this, ctx, { root });
+    Object.assign(this, ctx, { root, signal });
     this.comments = [];
     this.editSet = null;
     this.el = (id) => root.querySelector(`#${id}`);
@@ -35,13 +35,15 @@ export class TeamPanel {
     }
     this.root.dataset.polls = String(Number(this.root.dataset.polls ?? 0) + 1);
     this.afterPoll?.();
-    this.timer = setTimeout(() => this.poll(), POLL_MS);
+    if (!this.signal.aborted) this.timer = setTimeout(() => this.poll(), POLL_MS);
   }
 
   // -- comments ----------------------------------------------------------------------------------
 
   async loadComments() {
-    this.comments = (await get(`${this.base}/comments`)) ?? [];
+    const comments = (await get(`${this.base}/comments`)) ?? [];
+    if (this.signal.aborted) return; // the page closed meanwhile: its elements are the next page's
+    this.comments = comments;
     const open = this.comments.filter((c) => !c.resolved);
     const count = this.el("unresolved-count");
     count.textContent = String(open.length);
@@ -51,25 +53,29 @@ export class TeamPanel {
     this.renderBadges(open);
   }
 
-  // The thread shown: the one selected camera's, else the project's.
+  // The thread shown: the one selected camera's, the two selected cameras' pair, else the project's.
   target() {
-    const [only, ...more] = this.store.selection;
-    if (only !== undefined && !more.length) return { kind: "image", id: only };
+    const [first, ...more] = this.store.selection;
+    if (first !== undefined && !more.length) return { kind: "image", id: first };
+    if (more.length === 1) return { kind: "pair", image_ids: [first, more[0]].sort((a, b) => a - b) };
     return { kind: "project" };
   }
 
   onTarget(comment, target) {
-    return comment.target.kind === target.kind && (comment.target.id ?? null) === (target.id ?? null);
+    const key = (t) => `${t.kind}:${t.id ?? ""}:${(t.image_ids ?? []).join("-")}`;
+    return key(comment.target) === key(target);
   }
 
   renderThread() {
     const target = this.target();
-    const name = target.kind === "image" ? this.store.byId.get(target.id)?.name ?? `image ${target.id}`
-      : "the project";
+    const nameOf = (id) => this.store.byId.get(id)?.name ?? `image ${id}`;
+    const name = target.kind === "image" ? nameOf(target.id)
+      : target.kind === "pair" ? `the pair ${target.image_ids.map(nameOf).join(" – ")}` : "the project";
     this.el("thread-title").textContent = `Comments on ${name}`;
     const thread = this.comments.filter((c) => this.onTarget(c, target));
     const list = this.el("thread");
-    list.dataset.target = target.kind === "image" ? `image:${target.id}` : "project";
+    list.dataset.target = target.kind === "image" ? `image:${target.id}`
+      : target.kind === "pair" ? `pair:${target.image_ids.join("-")}` : "project";
     list.replaceChildren(...thread.map((c) => this.commentItem(c)));
     if (!thread.length) list.append(Object.assign(document.createElement("li"), { className: "hint",
       textContent: "No comments yet." }));
@@ -139,13 +145,17 @@ export class TeamPanel {
     }
   }
 
-  // Pins at the cameras with open comments (drawn by the scene's overlay hook).
+  // Pins at the cameras with open comments, and at the midpoint of pairs with some (drawn by the
+  // scene's overlay hook); a pin's key is the image id, or "id1-id2" for a pair.
   renderPins(open) {
     const counts = new Map();
-    for (const c of open) if (c.target.kind === "image") counts.set(c.target.id, (counts.get(c.target.id) ?? 0) + 1);
-    this.pins = counts;
+    for (const c of open) {
+      const key = c.target.kind === "image" ? String(c.target.id)
+        : c.target.kind === "pair" ? c.target.image_ids.join("-") : null;
+      if (key) counts.set(key, (counts.get(key) ?? 0) + 1);
+    }
     this.view.overlay = (ctx, t, px) => drawPins(ctx, t, px, this.view, counts);
-    this.view.canvas.dataset.pins = [...counts].map(([id, n]) => `${id}:${n}`).join(",");
+    this.view.canvas.dataset.pins = [...counts].map(([key, n]) => `${key}:${n}`).join(",");
     this.view.requestDraw();
   }
 
@@ -162,9 +172,17 @@ export class TeamPanel {
 
   // -- review ------------------------------------------------------------------------------------
 
+  // The edit set this page edits, else the newest one on the version on screen (a colleague's,
+  // started after this page opened: the one a reviewer is asked about).
   async loadReview() {
-    const id = this.editSetId();
-    this.editSet = id === null ? null : await get(`${this.base}/edits/${id}`);
+    let id = this.editSetId();
+    if (id === null && this.store.version) {
+      const sets = ((await get(`${this.base}/edits`)) ?? []).filter((e) => e.base_version_id === this.store.version.id);
+      id = sets.sort((a, b) => b.id - a.id)[0]?.id ?? null;
+    }
+    const editSet = id === null ? null : await get(`${this.base}/edits/${id}`);
+    if (this.signal.aborted) return;
+    this.editSet = editSet;
     this.renderReview();
   }
 
@@ -216,8 +234,9 @@ export class TeamPanel {
   // -- presence ----------------------------------------------------------------------------------
 
   async loadPresence() {
-    const body = { version_id: this.store.version?.id ?? null, edit_set_id: this.editSetId() };
+    const body = { version_id: this.store.version?.id ?? null, edit_set_id: this.editSetId() ?? this.editSet?.id ?? null };
     const people = (await post(`${this.base}/presence`, body)) ?? [];
+    if (this.signal.aborted) return;
     const line = this.el("presence");
     line.dataset.users = people.map((p) => p.username).join(",");
     line.textContent = "Here now: " + people.map((p) => (p.edit_set_id ? `${p.username} (edit set ${p.edit_set_id})`
@@ -240,24 +259,43 @@ function button(text, action, commentId) {
   return b;
 }
 
-// A speech-bubble pin with the number of open comments, beside each commented camera.
+// Where each pin goes, in world coordinates: beside its camera, or at its pair's midpoint.
+function pinSpots(view, counts) {
+  const poses = new Map();
+  for (const cam of view.cameras) {
+    const pose = view.poseOf(cam);
+    if (pose) poses.set(String(cam.id), pose);
+  }
+  const spots = [];
+  for (const [key, n] of counts) {
+    const ends = key.split("-").map((id) => poses.get(id));
+    if (ends.some((p) => !p)) continue;
+    const x = ends.reduce((sum, p) => sum + p.x, 0) / ends.length;
+    const y = ends.reduce((sum, p) => sum + p.y, 0) / ends.length;
+    spots.push({ key, n, x, y, beside: ends.length === 1 });
+  }
+  return spots;
+}
+
+// A speech-bubble pin with the number of open comments.
 export function drawPins(ctx, t, px, view, counts) {
   ctx.save();
   ctx.font = `${10 * px}px system-ui, sans-serif`;
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";
-  for (const cam of view.cameras) {
-    const n = counts.get(cam.id);
-    const pose = n && view.poseOf(cam);
-    if (!pose) continue;
-    const [x, y] = t(pose.x, pose.y);
-    const [cx, cy, r] = [x + 9 * px, y - 9 * px, 7 * px];
+  const at = []; // where each pin was drawn (device pixels), for tests and tools
+  for (const { key, n, x: wx, y: wy, beside } of pinSpots(view, counts)) {
+    const [x, y] = t(wx, wy);
+    const shift = beside ? 9 * px : 0;
+    const [cx, cy, r] = [x + shift, y - shift, 7 * px];
     ctx.fillStyle = view.colours.pin ?? "#d53f8c";
     ctx.beginPath();
     ctx.arc(cx, cy, r, 0, 2 * Math.PI);
     ctx.fill();
     ctx.fillStyle = "#fff";
     ctx.fillText(String(n), cx, cy + 0.5 * px);
+    at.push(`${key}:${Math.round(cx - 4 * px)},${Math.round(cy)}`);
   }
   ctx.restore();
+  view.canvas.dataset.pinsAt = at.join(" ");
 }

@@ -134,3 +134,24 @@ def test_a_refused_change_logs_nothing(client, reconstructed):
     assert stale.status_code == 409
     assert client.post(api(s, f"/versions/{s.vid}/publish"), headers=signup(client, "x")).status_code == 404
     assert entries(client, s) == before
+
+
+def test_a_job_the_sweeper_fails_is_logged_and_its_author_told(client, reconstructed, session, sessions,
+                                                                 settings):
+    from datetime import timedelta
+
+    from guided_sfm.db.models import Job, utcnow
+    from worker.sweeper import sweep
+
+    s = reconstructed
+    job_id = ok(client.post(api(s, "/reconstruct"), json={}, headers=s.owner), 202)["id"]
+    job = session.get(Job, job_id)
+    stale = utcnow() - timedelta(seconds=settings.stale_seconds + 60)
+    job.state, job.attempts, job.heartbeat_at, job.started_at = "running", settings.max_attempts, stale, stale
+    session.commit()
+    assert sweep(sessions, settings, lambda _job_id: None)["failed"] == [job_id]
+    ends = entries(client, s, action="job_end")
+    assert [(e["user"], e["detail"]["state"], e["detail"]["job_id"]) for e in ends] == [
+        ("owner", "failed", job_id)]
+    told = client.get("/api/v1/notifications", headers=s.owner).json()
+    assert [(n["kind"], n["target"]["id"]) for n in told] == [("job_finished", job_id)]

@@ -88,6 +88,13 @@ class FakeApi:
             ("GET", "/projects/1/edits"): lambda: [self.edit] if self.edit else [],
             ("GET", "/projects/1/edits/1"): lambda: self.edit,
             ("GET", "/projects/1/edits/1/preview"): self.preview,
+            # team review (v1.1): nobody else here, nothing said yet
+            ("GET", "/projects/1/comments"): lambda: [],
+            ("POST", "/projects/1/presence"): lambda: [{"username": "fake-user", "edit_set_id": None,
+                                                        "version_id": self.head,
+                                                        "seen_at": "2026-01-01T00:00:00Z"}],
+            ("GET", "/projects/1/activity"): lambda: {"items": [], "next_before": None},
+            ("GET", "/notifications"): lambda: [],
         }
         if (method, path) in routes:
             return 200, routes[(method, path)]()

@@ -11,6 +11,7 @@ from fastapi.staticfiles import StaticFiles
 from sqlalchemy.orm import Session, sessionmaker
 
 from guided_sfm.api import errors, health
+from guided_sfm.api.concurrency import ConcurrencyLimit, pool_capacity
 from guided_sfm.api.headers import SecurityHeaders
 from guided_sfm.api.health import Readiness
 from guided_sfm.api.limits import BodyLimit
@@ -58,6 +59,8 @@ def create_app(settings: Settings, submit: Callable[[int], None],
         app.include_router(module.router, prefix=API_PREFIX)
     app.add_middleware(BodyLimit, upload_limit=settings.max_upload_bytes)
     app.add_middleware(SecurityHeaders, index_html=FRONTEND / "index.html")
+    if (capacity := pool_capacity(app.state.sessions)) is not None:
+        app.add_middleware(ConcurrencyLimit, limit=capacity)
 
     if FRONTEND.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND, html=True), name="frontend")

@@ -34,7 +34,7 @@ READ_METHODS = ("GET", "HEAD", "OPTIONS")
 def get_session(request: Request) -> Iterator[Session]:
     """A session per request; reads do not take SQLite's write lock (see db.session)."""
     with request.app.state.sessions() as session:
-        if request.method in READ_METHODS:
+        if request.method in READ_METHODS or getattr(request.state, "reads_only", False):
             read_only(session)
         yield session
 

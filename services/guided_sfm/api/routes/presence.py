@@ -2,7 +2,7 @@
 
 from typing import Annotated
 
-from fastapi import APIRouter, Query, Request
+from fastapi import APIRouter, Depends, Query, Request
 
 from guided_sfm.actions import notifications, presence
 from guided_sfm.api.deps import CurrentUser, SessionDep, ViewerProject, personal_token
@@ -12,12 +12,19 @@ from guided_sfm.db.models import Notification
 router = APIRouter(tags=["presence"])
 
 
-@router.post("/projects/{pid}/presence", response_model=list[PresenceOut])
-def report_presence(project: ViewerProject, session: SessionDep, user: CurrentUser,
+def reads_only(request: Request) -> None:
+    """The request's session only reads: presence writes its row in a short transaction of its
+    own (on SQLite a request-long write lock would queue every member's report behind the others)."""
+    request.state.reads_only = True
+
+
+@router.post("/projects/{pid}/presence", response_model=list[PresenceOut], dependencies=[Depends(reads_only)])
+def report_presence(request: Request, project: ViewerProject, session: SessionDep, user: CurrentUser,
                     body: PresenceIn | None = None) -> list[PresenceOut]:
     """Say where you are; answers everyone seen in the last 30 s, you included."""
     body = body or PresenceIn()
-    rows = presence.report(session, project.id, user.id, body.edit_set_id, body.version_id)
+    rows = presence.report(session, request.app.state.sessions, project.id, user.id, body.edit_set_id,
+                           body.version_id)
     return [PresenceOut(username=r.user.username, edit_set_id=r.edit_set_id, version_id=r.version_id,
                         seen_at=r.seen_at) for r in rows]
 

@@ -86,7 +86,8 @@ def publish(version: EditorVersion, project: EditorProject, session: SessionDep,
     """The version becomes the project's published result (`published_version_id`)."""
     published = project_settings.publish(session, project, version, actor)
     return ProjectOut.model_validate(published).model_copy(
-        update={"role": queries.role_of(session, project.id, user.id)})
+        update={"role": queries.role_of(session, project.id, user.id),
+                "owner": queries.owner_name(session, project.id)})
 
 
 @router.get("/{vid}/export", response_class=FileResponse)
