@@ -92,12 +92,13 @@ def test_unknown_sfm_option_names_the_choices(option, value):
 
 
 def test_prune_records_the_links_it_kept_to_connect(tiny_workspace_ro, tmp_path):
-    # A camera left where it is, with placement_deg far below any real residual: the placement
-    # test alone would cut all its pairs; they are kept and named instead of deleted.
+    # A camera left where it is, with placement_deg far below any real residual and epipolar_deg
+    # so small that the relative-pose test judges (and so keeps) none of its pairs: the placement
+    # test alone would cut all of them; they are kept and named instead of deleted.
     scene = Workspace(tiny_workspace_ro).scene()
     camera = [c for c in scene.cameras if c.registered][5]
     edits = EditSet([CameraEdit(camera.image_id, camera.x, camera.y, camera.yaw_deg)],
-                    rule="default", tolerances={"placement_deg": 0.001})
+                    rule="default", tolerances={"placement_deg": 0.001, "epipolar_deg": 1e-6})
     outcome = Workspace(tiny_workspace_ro).prune(edits, Workspace(tmp_path / "next"))
     touching = {p for p in Workspace(tiny_workspace_ro).verified_pairs() if camera.image_id in p}
     assert touching and set(outcome.kept_to_connect) == touching and not outcome.deleted
