@@ -213,7 +213,8 @@ def test_guided_correction_loop(page, server, sample_project):
         assert abs(wrap_deg(saved["yaw_deg"] - yaw)) < 1e-6
 
     page.get_by_role("button", name="Delete distant matching").click()
-    page.wait_for_selector("#preview-details li")
+    page.wait_for_selector("#preview-details .cut-group summary")  # grouped by camera, collapsed
+    assert page.locator("#preview-details .cut-group li").count() == preview["count"]
     page.get_by_role("button", name="Run reconstruction").click()
     page.wait_for_selector("#status[data-kind=apply]")
     assert canvas_data(page, "editable") == "false", "editing must lock while the job runs"
