@@ -148,6 +148,7 @@ const REASONS = {
   rotation: "the placement turns the cameras too far apart for these matches",
   relative_pose: "the matches place the two cameras differently from the placement",
   separates: "it joins two groups the placement separates",
+  check: "after the re-map it pulled a moved camera far from its placement",
   manual: "you deleted it",
 };
 

@@ -72,7 +72,7 @@ def _options(args: argparse.Namespace):
     from guided_sfm.core.sfm import SfmOptions
 
     extra = {"num_threads": args.threads} if getattr(args, "threads", None) else {}
-    return SfmOptions(matcher=getattr(args, "matcher", "exhaustive"),
+    return SfmOptions(matcher=getattr(args, "matcher", "auto"),
                       mapper=getattr(args, "mapper", "incremental"),
                       features=getattr(args, "features", "standard"), **extra)
 
@@ -86,7 +86,10 @@ def cmd_reconstruct(args: argparse.Namespace) -> None:
     with ProgressBar() as bar:
         clock = StageClock(bar)
         workspace.reconstruct(Path(args.images_dir), RunContext(_options(args), clock))
-    print_table([*sorted(workspace.stats().items()), *format_report(clock.report())])
+    used = workspace.used()
+    matcher = used["matcher"] if args.matcher == used["matcher"] else f"{args.matcher}: {used['matcher']}"
+    print_table([*sorted(workspace.stats().items()), ("matcher", matcher), ("mapper", used["mapper"]),
+                 *format_report(clock.report())])
 
 
 def cmd_scene(args: argparse.Namespace) -> None:
@@ -172,8 +175,9 @@ def cmd_demo(args: argparse.Namespace) -> None:
     with ProgressBar() as bar:
         result = demo.run_demo(layout=args.layout, seed=args.seed, rounds=args.rounds,
                                rule=args.rule, out_dir=Path(args.out) if args.out else None,
-                               progress=bar, cold=args.cold,
-                               tolerances=_tolerances(args.tolerance), reuse=args.reuse)
+                               options=_options(args), progress=bar, cold=args.cold,
+                               tolerances=_tolerances(args.tolerance), reuse=args.reuse,
+                               user=args.user)
     if args.json:
         print_json(result)
     else:
@@ -186,8 +190,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     _add(sub, "sample", cmd_sample, "render a sample scene with ground truth",
          [("out_dir",), ("--layout", {"default": None}), ("--seed", {"type": int, "default": 0})])
-    sfm_args = [("--matcher", {"choices": ["exhaustive", "sequential"], "default": "exhaustive"}),
-                ("--mapper", {"choices": ["incremental", "global"], "default": "incremental"}),
+    sfm_args = [("--matcher", {"choices": ["auto", "exhaustive", "sequential", "retrieval"],
+                               "default": "auto",
+                               "help": "auto: exhaustive up to a number of images, retrieval above "
+                                       "it (docs/engine.md)"}),
+                ("--mapper", {"choices": ["incremental", "global", "hierarchical"],
+                              "default": "incremental"}),
                 ("--threads", {"type": int, "default": None}),
                 ("--features", {"choices": ["standard", "colmap"], "default": "standard",
                                 "help": "colmap: COLMAP's own SIFT octaves and threshold, about "
@@ -208,11 +216,14 @@ def build_parser() -> argparse.ArgumentParser:
          [("--layout", {"default": None}), ("--seed", {"type": int, "default": 0}),
           ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": DEFAULT_RULE,
                                                                "choices": list(RULES)}),
-          ("--out", {"default": None}), ("--cold", {"action": "store_true"}),
+          ("--out", {"default": None}), ("--cold", {"action": "store_true"}), sfm_args[0],
           ("--tolerance", {"action": "append", "metavar": "NAME=VALUE",
                            "help": "override one of the default rule's tolerances"}),
           ("--reuse", {"action": "store_true",
                        "help": "start from --out's existing sample and round0 if present"}),
+          ("--user", {"default": "wrong", "choices": ["wrong", "all"],
+                      "help": "wrong: place the wrong cameras near their truth; all: re-lay every "
+                              "camera of an orbit on a circle in capture order"}),
           ("--json", {"action": "store_true"})])
     _register_service(sub)
     return parser

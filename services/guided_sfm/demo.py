@@ -7,7 +7,7 @@ import tempfile
 from pathlib import Path
 
 from guided_sfm import sample
-from guided_sfm.core import evaluation, metrics, simulated_user
+from guided_sfm.core import checked_round, evaluation, metrics, simulated_user
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.sfm import RunContext, SfmOptions
 from guided_sfm.core.stage_clock import StageClock
@@ -20,16 +20,17 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
              rule: str = DEFAULT_RULE, out_dir: Path | None = None,
              options: SfmOptions = SfmOptions(), progress: Progress = no_progress,
              cold: bool = False, tolerances: dict[str, float] | None = None,
-             reuse: bool = False) -> dict:
+             reuse: bool = False, user: str = "wrong") -> dict:
     """Run the loop; returns {layout, rule, rounds: [per-round report], summary}.
 
     With reuse, an out_dir that already holds the sample and its first reconstruction (round0)
-    starts from them, so rules and tolerances compare on the same reconstruction.
+    starts from them, so rules and tolerances compare on the same reconstruction. user: who the
+    simulated user places (USERS).
     """
     if out_dir is None:
         with tempfile.TemporaryDirectory(prefix="guided-sfm-demo-") as tmp:
             return run_demo(layout, seed, rounds, rule, Path(tmp), options, progress, cold,
-                            tolerances)
+                            tolerances, user=user)
     clock = StageClock(progress)
     run = RunContext(options, clock)
     truth_file = out_dir / "sample" / "truth.json"
@@ -48,14 +49,13 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
         targets = [n for n in status.wrong + status.unregistered if n in truth.cameras]
         if not targets:
             break
-        placements = simulated_user.place_cameras(base.scene(), truth, targets,
-                                                  status.truth_from_model, seed + number)
+        placements = _place(user, base.scene(), truth, targets, status, seed + number)
         edits = parse_edits({"cameras": [vars(c) for c in placements], "rule": rule,
                              "tolerances": dict(tolerances or {})}, base.image_ids())
         new = Workspace(out_dir / f"round{number}")
         with clock.timed("prune"):
             outcome = base.prune(edits, new)
-        mapped = new.map_again(run, cold=cold)
+        mapped, checked = checked_round.map_checked(new, edits, run, cold=cold)
         report = evaluation.evaluate_workspace(new, truth_file, reference_from=base,
                                                before_reference=reference)
         reports.append({"round": number, **report, "num_moved": len(edits.cameras),
@@ -63,14 +63,31 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
                         "components_after": outcome.components_after,
                         "split": report["num_models"] > reports[-1]["num_models"],
                         "map_mode": mapped.mode, "map_fallback": mapped.fallback,
+                        "checked_pairs": len(checked),
                         "seconds": clock.take()})
         # "Right" keeps one meaning across rounds: align on what was right before this round.
         reference = status.right
         status = evaluation.camera_status(new, truth, reference=reference)
         base = new
-    return {"layout": layout, "rule": rule, "seed": seed, "tolerances": dict(tolerances or {}),
-            "rounds": reports,
+    return {"layout": layout, "rule": rule, "seed": seed, "user": user,
+            "tolerances": dict(tolerances or {}),
+            **Workspace(out_dir / "round0").used(), "rounds": reports,
             "summary": _summary(reports, status)}
+
+
+# The simulated users: "wrong" places each wrong or unregistered camera near its true pose;
+# "all" is a capture-shape user who re-lays every camera of an orbit on one circle in capture
+# order (simulated_user.place_on_circle), the right ones included.
+USERS = ("wrong", "all")
+
+
+def _place(user: str, scene, truth, targets: list[str], status: evaluation.CameraStatus,
+           seed: int) -> list:
+    if user == "all":
+        everyone = [c.name for c in scene.cameras if c.name in truth.cameras]
+        return simulated_user.place_on_circle(scene, truth, everyone, status.truth_from_model,
+                                              seed)
+    return simulated_user.place_cameras(scene, truth, targets, status.truth_from_model, seed)
 
 
 def _summary(reports: list[dict], final: evaluation.CameraStatus) -> dict:
@@ -117,7 +134,8 @@ def _cell(value: object) -> str:
 
 def print_report(result: dict) -> None:
     """A per-round table, pruning scores and stage times on stdout."""
-    print(f"layout {result['layout']}, rule {result['rule']}, seed {result['seed']}")
+    print(f"layout {result['layout']}, rule {result['rule']}, seed {result['seed']}, "
+          f"matcher {result.get('matcher', '-')}, mapper {result.get('mapper', '-')}")
     print("  ".join(f"{title:>9}" for title, _ in ROUND_COLUMNS)
           + "  pruning P/R/F1   seconds per stage")
     for report in result["rounds"]:

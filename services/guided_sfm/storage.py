@@ -68,13 +68,14 @@ class ArtifactStore:
         shutil.rmtree(self.project_dir(project_id), ignore_errors=True)
 
 
+def link_file(source: Path | str, target: Path | str) -> None:
+    """Hard-link a file (versions share unchanged files); a copy across devices."""
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
+
+
 def link_tree(source: Path, target: Path) -> None:
     """Copy a directory tree as hard links (versions share unchanged files); copies across devices."""
-
-    def link(src: str, dst: str) -> None:
-        try:
-            os.link(src, dst)
-        except OSError:
-            shutil.copy2(src, dst)
-
-    shutil.copytree(source, target, copy_function=link, dirs_exist_ok=True)
+    shutil.copytree(source, target, copy_function=link_file, dirs_exist_ok=True)

@@ -84,3 +84,9 @@ def test_map_reports_each_stage_with_its_time_and_peak_memory(tiny_workspace, tm
     assert 0 <= float(seconds) <= elapsed
     assert int(peak) == max(int(row[3]) for row in times.values())  # the total's peak is the stages' max
     assert int(peak) > 50  # pycolmap and numpy alone hold more than 50 MiB
+
+
+def test_reconstruct_table_names_the_matcher_auto_chose_and_the_mapper(tiny_sample, tmp_path):
+    done = run("reconstruct", tiny_sample / "images", tmp_path / "ws", "--threads", "2", check=True)
+    rows = dict(line.split(None, 1) for line in done.stdout.splitlines() if line.strip())
+    assert rows["matcher"] == "auto: exhaustive" and rows["mapper"] == "incremental"

@@ -198,10 +198,11 @@ def test_two_moved_cameras_turned_alike_are_forgiven_up_to_their_yaw_freedom(tur
 
 
 def test_the_guard_keeps_the_links_only_the_placement_test_cut():
-    # Camera 2 nudged within the user's uncertainty while placement_deg is set absurdly tight:
-    # the placement test alone would cut all of camera 2's pairs and isolate it.
+    # Camera 2 sat 1 m off in the model (its pairs disagree with the model: no relative-pose
+    # verdict) and is placed near its truth while placement_deg is set absurdly tight: the
+    # placement test alone would cut all of camera 2's pairs and isolate it.
     capture, _, _ = _twins(np.random.default_rng(7))
-    capture.cluster = set()
+    capture.cluster, capture.motion = {2}, ground_motion(0.0, (1.0, 0.0, 0.0))
     edits = capture.placement({2}, shift=0.3, turn_deg=10.0, placement_deg=0.5)
     touching = {p for p in capture.pairs() if 2 in p}
     result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
@@ -326,3 +327,43 @@ def test_tolerance_overrides_merge_over_the_defaults():
     assert resolve({}) == Tolerances()
     assert resolve({"placement_deg": 30}).placement_deg == 30.0
     assert resolve({"placement_deg": 30}).rotation_deg == Tolerances().rotation_deg
+
+
+def _folded_run(rng) -> tuple[Capture, set, set]:
+    """The orbit above, plus look-alike pairs between two cameras of the folded run itself: the
+    run turned as a whole keeps their relative rotation, so the model agrees with a placement."""
+    capture, true_pairs, false_pairs = _orbit(rng)
+    turn = ground_motion(90.0, (0, 0, 0))[0]
+    inside = set()
+    for i in sorted(capture.cluster):
+        for j in (i + 4, i + 5):  # 60-75 deg on: j's side looks like i's own, a quarter turn on
+            if j in capture.cluster:
+                seen = _face_points(rng, 15.0 * i)
+                capture.match(i, j, seen, seen @ turn.T)
+                inside.add((i, j))
+    return capture, true_pairs, false_pairs | inside
+
+
+def test_a_run_folded_as_a_whole_loses_its_inner_look_alike_pairs():
+    # A capture-shape user re-lays every camera (issue 20): pairs between two moved cameras whose
+    # relative rotation the fold kept are judged by their own two-view pose.
+    capture, true_pairs, false_pairs = _folded_run(np.random.default_rng(3))
+    edits = capture.placement(set(capture.poses), turn_deg=8.0)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    inside = {p for p in false_pairs if set(p) <= capture.cluster}
+    assert len(inside) == 3 and inside <= set(result.deleted)
+    assert all("rotation" in result.reasons[p] for p in inside)
+    assert true_pairs.isdisjoint(result.deleted)
+
+
+def test_a_pair_the_relative_pose_test_keeps_is_not_cut_by_its_carried_angle():
+    # Camera 2 nudged within the user's uncertainty while placement_deg is set absurdly tight:
+    # its pairs agree with the model and keep their relative pose, so the carried angle
+    # measures the placement's error, not the pair; only its look-alike pairs are cut (their
+    # matches disagree with the model), and no true pair needs the guard.
+    capture, _, false_pairs = _twins(np.random.default_rng(7))
+    capture.cluster = set()
+    edits = capture.placement({2}, shift=0.3, turn_deg=10.0, placement_deg=0.5)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    assert set(result.deleted) == {p for p in false_pairs if 2 in p} == {(2, 6), (2, 7), (2, 8)}
+    assert not result.kept_to_connect

@@ -87,3 +87,17 @@ def test_segment_median_and_yaw_slack():
     np.testing.assert_allclose(geometry.segment_median(np.array([1.0, 3.0]), np.array([0, 0]), 1), [2.0])
     np.testing.assert_allclose(geometry.yaw_slack_deg(20.0, 10.0, np.array([0, 1, 2, 3])),
                                [20.0, 20.0, 30.0, 40.0])
+
+
+@pytest.mark.parametrize("share", [0.0, 0.25, 0.4, 0.5, 1.0])
+def test_segment_quantile_is_numpys_per_segment(share):
+    rng = np.random.default_rng(4)
+    segments = np.sort(rng.integers(0, 6, 60))
+    values = rng.uniform(0, 359, 60)
+    found = geometry.segment_quantile(values, segments, 7, share)
+    for segment in range(7):
+        chosen = values[segments == segment]
+        if len(chosen):
+            assert found[segment] == pytest.approx(np.quantile(chosen, share))
+        else:
+            assert np.isnan(found[segment])

@@ -95,3 +95,18 @@ def test_images_verify_with_a_camera_each_and_map_with_one_per_size(tiny_sample,
 def test_the_reconstructed_sample_has_one_camera(tiny_workspace_ro):
     model = Workspace(tiny_workspace_ro).load_models()[0]
     assert len(model.cameras) == 1
+
+
+def test_hierarchical_mapping_is_selectable_and_maps_the_tiny_sample(tiny_workspace, monkeypatch):
+    calls = []
+    real = pycolmap.hierarchical_mapping
+
+    def recorded(*args, **kwargs):  # the real mapper runs; the test only sees that it was chosen
+        calls.append(args[3].num_threads)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(pycolmap, "hierarchical_mapping", recorded)
+    workspace = Workspace(tiny_workspace)
+    options = SfmOptions(mapper="hierarchical", max_num_features=1024, num_threads=2)
+    workspace.map_again(RunContext(options), cold=True)
+    assert calls == [2] and workspace.load_models()[0].num_reg_images() >= 10

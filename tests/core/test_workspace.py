@@ -84,7 +84,7 @@ def test_unknown_image_and_missing_workspace_are_clear_errors(tiny_workspace, tm
         Workspace(tmp_path / "nowhere").preview(EditSet())
 
 
-@pytest.mark.parametrize(("option", "value"), [("matcher", "vocab"), ("mapper", "hierarchical"),
+@pytest.mark.parametrize(("option", "value"), [("matcher", "vocab"), ("mapper", "clustered"),
                                                ("features", "tiny"), ("camera_model", "FISHEYE")])
 def test_unknown_sfm_option_names_the_choices(option, value):
     with pytest.raises(InvalidInput, match=f"unknown .*{value}.*choose one of"):

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from guided_sfm.actions.context import JobContext, Produced
 from guided_sfm.actions.ids import IdMap
+from guided_sfm.core import checked_round
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.errors import MissingWorkspace
 from guided_sfm.core.workspace import Workspace
@@ -26,12 +27,14 @@ def run(context: JobContext, work: Path) -> Produced:
     context.progress("prune", 0.0)
     new = Workspace(work)
     outcome = base_ws.prune(edits, new)
-    mapped = None
-    if remap:  # warm from the base model unless its guard falls back to a cold re-map
-        mapped = new.map_again(context.run(), context.images_dir())
-    reasons = ids.pairs_with((pair, outcome.reasons.get(pair, ())) for pair in outcome.deleted)
+    mapped, checked = None, []
+    if remap:  # warm from the base model unless its guard falls back to a cold re-map; checked
+        mapped, checked = checked_round.map_checked(new, edits, context.run(), context.images_dir())
+    reasons = ids.pairs_with([*((pair, outcome.reasons.get(pair, ())) for pair in outcome.deleted),
+                              *((pair, (checked_round.CHECK,)) for pair in checked)])
     deleted = [(a, b, tests) for (a, b), tests in reasons]
     message = (f"edit set {job.params.get('edit_set_id')}: deleted {len(deleted)} pairs"
+               + (f" ({len(checked)} by the check of the re-map)" if checked else "")
                + (f"; {mapped.message()}" if mapped else ", not mapped again"))
     if job.params.get("message"):  # the author's words first, then what was done
         message = f"{job.params['message']} ({message})"

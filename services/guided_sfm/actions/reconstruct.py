@@ -16,6 +16,7 @@ from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Job, Project
 from guided_sfm.db.session import session_scope
+from guided_sfm.storage import link_file
 
 
 def queue(session: Session, submit: Callable[[int], None], project: Project, user_id: int,
@@ -33,8 +34,28 @@ def run(context: JobContext, work: Path) -> Produced:
     if count < 2:
         raise InvalidInput(f"a reconstruction needs at least 2 images; the project has {count}")
     run, workspace = context.run(), Workspace(work)
+    _reuse_tree(context, workspace)
     workspace.reconstruct(context.images_dir(), run, names)
-    stats, options = workspace.stats(), run.options
+    stats, used = workspace.stats(), workspace.used()
     message = (f"reconstructed {stats['num_registered']} of {stats['num_images']} images "
-               f"({options.matcher} matching, {options.mapper} mapping)")
+               f"({_chosen(run.options.matcher, used['matcher'])} matching, "
+               f"{used['mapper']} mapping)")
     return Produced(work, "reconstruct", message, context.job.base_version_id, stats)
+
+
+def _chosen(asked: str, used: str) -> str:
+    """"retrieval" when asked for it, "auto: retrieval" when auto chose it."""
+    return used if asked == used else f"{asked}: {used}"
+
+
+def _reuse_tree(context: JobContext, workspace: Workspace) -> None:
+    """Link the newest vocabulary tree of the project's earlier versions into the new workspace,
+    so retrieval does not train one again (the tree is kept with the project)."""
+    with session_scope(context.sessions) as session:
+        paths = [v.path for v in reversed(queries.versions(session, context.job.project_id))]
+    for path in paths:
+        tree = Workspace(context.store.version_dir(path)).tree
+        if tree.is_file():
+            workspace.root.mkdir(parents=True, exist_ok=True)
+            link_file(tree, workspace.tree)
+            return

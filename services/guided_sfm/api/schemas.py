@@ -155,8 +155,8 @@ class ImageOut(Out):
 
 class ReconstructIn(In):
     camera_model: str | None = None
-    matcher: Literal["exhaustive", "sequential"] | None = None
-    mapper: Literal["incremental", "global"] | None = None
+    matcher: Literal["auto", "exhaustive", "sequential", "retrieval"] | None = None  # None: auto
+    mapper: Literal["incremental", "global", "hierarchical"] | None = None
 
 
 class JobOut(Out):

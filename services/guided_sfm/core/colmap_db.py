@@ -81,6 +81,12 @@ def verified_pairs(path: Path) -> dict[PairKey, int]:
         return {pair_key(*pycolmap.pair_id_to_image_pair(pid)): int(n) for pid, n in rows}
 
 
+def matched_pair_count(path: Path) -> int:
+    """How many image pairs were matched (verified or not): the matcher's candidate pairs."""
+    with read_only(path) as conn:
+        return conn.execute("SELECT COUNT(*) FROM matches").fetchone()[0]
+
+
 def inlier_matches(path: Path, pair: PairKey) -> np.ndarray:
     """(N, 2) keypoint indices of a pair's verified inlier matches, columns in pair order."""
     pair_id = pycolmap.image_pair_to_pair_id(*pair)

@@ -98,16 +98,25 @@ def horizontal_fov_deg(focal_px: float, width_px: float) -> float:
 
 def segment_median(values: np.ndarray, segments: np.ndarray, count: int) -> np.ndarray:
     """Median of values in [0, 360) per segment id in [0, count); NaN for empty segments."""
+    return segment_quantile(values, segments, count, 0.5)
+
+
+def segment_quantile(values: np.ndarray, segments: np.ndarray, count: int,
+                     share: float) -> np.ndarray:
+    """Quantile (numpy's linear one) of values in [0, 360) per segment id in [0, count); NaN for
+    empty segments."""
     # One sort of segment * 512 + value orders by segment, then value: cheaper than a lexsort.
     sizes = np.bincount(segments, minlength=count)
     ordered = np.sort(segments * 512.0 + values) - np.repeat(np.arange(count), sizes) * 512.0
     starts = np.cumsum(sizes) - sizes
-    low = starts + np.maximum(sizes - 1, 0) // 2
-    high = np.minimum(starts + sizes // 2, max(len(ordered) - 1, 0))
-    medians = np.full(count, np.nan)
+    position = share * np.maximum(sizes - 1, 0)
+    low = starts + np.floor(position).astype(np.int64)
+    high = np.minimum(starts + np.ceil(position).astype(np.int64), max(len(ordered) - 1, 0))
+    quantiles = np.full(count, np.nan)
     filled = sizes > 0
-    medians[filled] = (ordered[low[filled]] + ordered[high[filled]]) / 2
-    return medians
+    weight = (position - np.floor(position))[filled]
+    quantiles[filled] = ordered[low[filled]] * (1 - weight) + ordered[high[filled]] * weight
+    return quantiles
 
 
 def yaw_slack_deg(base_deg: float, per_member_deg: float, moved_members: np.ndarray) -> np.ndarray:

@@ -15,19 +15,27 @@ from pathlib import Path
 import pycolmap
 from PIL import Image
 
-from guided_sfm.core import colmap_db
+from guided_sfm.core import colmap_db, retrieval
 from guided_sfm.core.errors import Cancelled, EmptyModel, InvalidInput
 from guided_sfm.core.types import Progress, no_progress
 
 log = logging.getLogger(__name__)
 
-MATCHERS = ("exhaustive", "sequential")
+MATCHERS = ("auto", "exhaustive", "sequential", "retrieval")
+# `auto` matches exhaustively up to this many images and by retrieval above it. Exhaustive pairs
+# grow as n^2/2; retrieval's as about 15 n (20 retrieved and 10 along capture order per image,
+# many shared), plus training and querying the tree (~12 s at 115 images). Measured side by side
+# on the rendered hall (benchmarks/bench_scale.py, docs/engine.md "Matching at scale"), matching
+# took 8.8 s exhaustive against 6.2 s retrieval at 55 images and 36 s against 27 s at 115, with
+# the same registration and wrong cameras. Below 100 retrieval saves seconds, not minutes, so
+# small captures keep every pair: all those the product was tuned on (murals 57, Lund 29).
+AUTO_EXHAUSTIVE_MAX_IMAGES = 100
 # SIFT (first octave, contrast threshold). "standard" starts at the image's own resolution, not
 # twice it, and lowers the threshold to keep the count: COLMAP drops the finest scales first when
 # it caps, so the doubled octave was mostly computed and thrown away (extraction 3x faster on
 # murals, same registration on murals and Lund, docs/engine.md). "colmap" is COLMAP's own.
 FEATURES = {"standard": (0, 0.003), "colmap": (-1, 0.02 / 3)}
-MAPPERS = ("incremental", "global")
+MAPPERS = ("incremental", "global", "hierarchical")
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
 # About this many extraction and matching calls, one progress report each. Every call sets up
 # COLMAP's extractor or matcher cache again, so fewer calls are faster (measured on murals).
@@ -55,7 +63,7 @@ class SfmOptions:
     """Every knob of a reconstruction; the defaults are the product's default path."""
 
     camera_model: str = "SIMPLE_RADIAL"
-    matcher: str = "exhaustive"
+    matcher: str = "auto"  # a key of MATCHERS; matcher_for() says what auto means for n images
     mapper: str = "incremental"
     # None: a budget that follows the image's area (features_for_size); a number overrides it.
     max_num_features: int | None = None
@@ -194,27 +202,67 @@ def _image_ids_in_order(database: Path) -> list[int]:
     return sorted(names, key=names.__getitem__)
 
 
+def matcher_for(matcher: str, num_images: int) -> str:
+    """The matcher a run uses: `auto` resolved by the number of images, others as chosen."""
+    if matcher != "auto":
+        return matcher
+    return "exhaustive" if num_images <= AUTO_EXHAUSTIVE_MAX_IMAGES else "retrieval"
+
+
 def candidate_pairs(image_ids: Sequence[int], matcher: str, overlap: int = 10) -> list[tuple]:
-    """Image pairs a matcher compares: all pairs, or a window along capture order."""
+    """Image pairs a matcher compares: all pairs, or a window along capture order (`auto` below
+    its threshold is exhaustive; retrieval needs the database, see retrieval_candidates)."""
+    matcher = matcher_for(matcher, len(image_ids))
     if matcher == "exhaustive":
         return list(combinations(image_ids, 2))
+    if matcher == "retrieval":
+        raise InvalidInput("retrieval pairs come from the database's vocabulary tree")
     pairs = []
     for i, image_id in enumerate(image_ids):
         pairs += [(image_id, other) for other in image_ids[i + 1 : i + 1 + overlap]]
     return pairs
 
 
-def match_features(database: Path, run: RunContext = RunContext()) -> None:
+def retrieval_candidates(database: Path, tree: Path, run: RunContext) -> list[tuple]:
+    """Retrieval's pairs: each image with its nearest images by the vocabulary tree at `tree`
+    (built from the database's own descriptors when the file is missing, and kept there for
+    later runs), plus capture-order neighbours and loop closure."""
+    image_ids, options = _image_ids_in_order(database), run.options
+    if not tree.is_file():
+        run.progress("match", 0.0)
+        retrieval.build_tree(database, tree, options.num_threads)
+    run.check()
+    retrieved = retrieval.retrieved_pairs(database, tree, num_threads=options.num_threads)
+    return retrieval.combine(image_ids, retrieved,
+                             retrieval.order_pairs(image_ids, options.sequential_overlap))
+
+
+def match_features(database: Path, run: RunContext = RunContext(),
+                   tree: Path | None = None) -> str:
     """Match and geometrically verify the candidate pairs, with progress; then join the
-    per-image cameras so the mapper refines one camera per kind of image."""
+    per-image cameras so the mapper refines one camera per kind of image. Returns the matcher
+    used (what `auto` chose); retrieval keeps its tree at `tree` (default: beside the database)."""
     db_names, options = colmap_db.image_names(database), run.options
-    pairs = candidate_pairs(_image_ids_in_order(database), options.matcher,
-                            options.sequential_overlap)
+    matcher = matcher_for(options.matcher, len(db_names))
+    if matcher == "retrieval":
+        pairs = retrieval_candidates(database, tree or database.parent / retrieval.TREE_FILE, run)
+    else:
+        pairs = candidate_pairs(_image_ids_in_order(database), matcher, options.sequential_overlap)
+    log.info("Matching %d pairs of %d images (%s).", len(pairs), len(db_names), matcher)
+    _match_pairs(database, db_names, pairs, run)
+    run.check()
+    colmap_db.share_cameras(database)
+    return matcher
+
+
+def _match_pairs(database: Path, db_names: dict[int, str], pairs: Sequence[tuple[int, int]],
+                 run: RunContext) -> None:
+    """Match and verify the pairs in blocks of images, one progress report per block."""
     matching = pycolmap.FeatureMatchingOptions()
-    matching.num_threads = options.num_threads
+    matching.num_threads = run.options.num_threads
     matching.use_gpu = False
     verification = pycolmap.TwoViewGeometryOptions()
-    verification.ransac.random_seed = options.seed
+    verification.ransac.random_seed = run.options.seed
     with tempfile.TemporaryDirectory() as tmp:
         pair_file = Path(tmp) / "pairs.txt"
         done = 0
@@ -231,8 +279,6 @@ def match_features(database: Path, run: RunContext = RunContext()) -> None:
                 )
             done += len(block)
             run.progress("match", done / len(pairs))
-    run.check()
-    colmap_db.share_cameras(database)
 
 
 def _blocks_of_images(pairs: Sequence[tuple[int, int]]) -> list[list[tuple[int, int]]]:
@@ -281,6 +327,18 @@ def _global_map(database: Path, image_dir: Path, out: str, run: RunContext) -> d
     return pycolmap.global_mapping(database, image_dir, out, mapping)
 
 
+def _hierarchical_map(database: Path, image_dir: Path, out: str, run: RunContext) -> dict:
+    """COLMAP's hierarchical mapping: the match graph cut into overlapping clusters, each mapped
+    incrementally (with this product's registration threshold), then merged."""
+    mapping = pycolmap.HierarchicalPipelineOptions()
+    mapping.num_threads = run.options.num_threads
+    mapping.image_path = image_dir
+    incremental = _incremental_options(run.options, image_dir, 0, False, warm=False)
+    mapping.incremental_options = incremental
+    run.progress("map", 0.0)
+    return pycolmap.hierarchical_mapping(database, image_dir, out, mapping)
+
+
 def _incremental_map(database: Path, image_dir: Path, out: str, run: RunContext,
                      input_model: Path | None, fix_existing: bool, num_images: int) -> dict:
     """Incremental mapping, from input_model if given; a cold start that registers too little
@@ -318,6 +376,8 @@ def map_database(database: Path, image_dir: Path, sparse_dir: Path, run: RunCont
     with tempfile.TemporaryDirectory() as tmp:
         if run.options.mapper == "global":
             models = _global_map(database, image_dir, tmp, run)
+        elif run.options.mapper == "hierarchical":
+            models = _hierarchical_map(database, image_dir, tmp, run)
         else:
             models = _incremental_map(database, image_dir, tmp, run, input_model, fix_existing,
                                       num_images)

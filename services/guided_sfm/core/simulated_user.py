@@ -32,3 +32,50 @@ def place_cameras(scene: TopDownScene, truth: Truth, names: list[str],
         yaw = float(yaw_in_frame(direction, scene.frame)) + rng.choice([-1, 1]) * yaw_noise_deg
         edits.append(CameraEdit(by_name[name].image_id, float(xy[0]), float(xy[1]), yaw))
     return edits
+
+
+def _model_ground(scene: TopDownScene, truth: Truth, names: list[str],
+                  truth_from_model: Similarity) -> np.ndarray:
+    """(N, 2) true centres of the named cameras in the scene's frame (the truth carried into
+    the model by the inverse of truth_from_model)."""
+    rotation = np.asarray(truth_from_model.rotation)
+    centers = np.array([rotation.T @ (truth.cameras[n].center - truth_from_model.translation)
+                        / truth_from_model.scale for n in names])
+    return scene.frame.to_2d(centers)
+
+
+def _circle(xy: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least-squares circle (centre, radius) through 2D points (Kasa's fit)."""
+    system = np.column_stack([2 * xy, np.ones(len(xy))])
+    solution = np.linalg.lstsq(system, (xy**2).sum(axis=1), rcond=None)[0]
+    center = solution[:2]
+    return center, float(np.sqrt(solution[2] + center @ center))
+
+
+def place_on_circle(scene: TopDownScene, truth: Truth, names: list[str],
+                    truth_from_model: Similarity, seed: int = 0,
+                    offset_m: float = OFFSET_M, yaw_noise_deg: float = YAW_NOISE_DEG
+                    ) -> list[CameraEdit]:
+    """A capture-shape user on an orbit: every named camera re-laid on one circle, evenly spaced
+    in capture order (file-name order) from the first view's angle to the last's, facing the
+    circle's centre, then dropped with the same random error as place_cameras. The user knows
+    the capture went round the object in order, not where each photo was taken."""
+    rng = np.random.default_rng(seed)
+    ordered = sorted(names)
+    by_name = {c.name: c for c in scene.cameras}
+    xy = _model_ground(scene, truth, ordered, truth_from_model)
+    center, radius = _circle(xy)
+    angles = np.unwrap(np.arctan2(xy[:, 1] - center[1], xy[:, 0] - center[0]))
+    even = np.linspace(angles[0], angles[-1], len(ordered))
+    edits = []
+    for name, angle in zip(ordered, even, strict=True):
+        spot = center + radius * np.array([np.cos(angle), np.sin(angle)])
+        spot = spot + offset_m / truth_from_model.scale * _unit(rng.uniform(0, 2 * np.pi))
+        yaw = np.degrees(angle + np.pi) + rng.choice([-1, 1]) * yaw_noise_deg
+        edits.append(CameraEdit(by_name[name].image_id, float(spot[0]), float(spot[1]),
+                                float((yaw + 180) % 360 - 180)))
+    return edits
+
+
+def _unit(angle: float) -> np.ndarray:
+    return np.array([np.cos(angle), np.sin(angle)])

@@ -3,8 +3,9 @@ writes its files, and runs the steps on it: reconstruct, preview and prune an ed
 workspace, map again.
 
 A workspace holds `database.db`, `sparse/0/` (largest model), `sparse/1/`, ..., `scene.json`
-(the top-down scene), `workspace.json` (where its images are, options, parent) and, when it
-came from a correction round, `edits.json` and `pruning.json`. Exports are in `exports.py`.
+(the top-down scene), `workspace.json` (where its images are, options, the matcher and mapper
+used, parent), `vocab_tree.bin` when retrieval matched it (kept: later runs reuse it) and, when
+it came from a correction round, `edits.json` and `pruning.json`. Exports are in `exports.py`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from pathlib import Path
 
 import pycolmap
 
-from guided_sfm.core import colmap_db, colmap_model, match_graph, remap, sfm, topdown
+from guided_sfm.core import colmap_db, colmap_model, match_graph, remap, retrieval, sfm, topdown
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
 from guided_sfm.core.rule import driver, evidence
@@ -57,6 +58,7 @@ class Workspace:
         self.database, self.sparse = self.root / DATABASE, self.root / SPARSE
         self.scene_file, self.meta_file = self.root / SCENE, self.root / META
         self.edits_file, self.pruning_file = self.root / EDITS, self.root / PRUNING
+        self.tree = self.root / retrieval.TREE_FILE
 
     def __repr__(self) -> str:
         return f"Workspace({str(self.root)!r})"
@@ -155,12 +157,22 @@ class Workspace:
         self.database.unlink(missing_ok=True)
         shutil.rmtree(self.sparse, ignore_errors=True)  # a fresh start aligns to nothing
         image_dir = Path(image_dir).resolve()
-        self.write_meta({"image_dir": str(image_dir), "options": run.options.to_dict()})
+        meta = {"image_dir": str(image_dir), "options": run.options.to_dict()}
+        self.write_meta(meta)
         run = run.reporting_to(spanned(run.progress))
         sfm.extract_features(image_dir, self.database, run, image_names)
-        sfm.match_features(self.database, run)
+        # the tree, if any, stays: a tree of the same project's images serves a new run as well
+        meta["used"] = {"matcher": sfm.match_features(self.database, run, self.tree),
+                        "mapper": run.options.mapper,
+                        "pairs": colmap_db.matched_pair_count(self.database)}
+        self.write_meta(meta)
         colmap_db.finalize(self.database)
         self.map_again(run, image_dir, cold=True)
+
+    def used(self) -> dict[str, str | int]:
+        """The matcher and mapper the reconstruction used (what `auto` chose) and how many pairs
+        it matched; {} if unknown."""
+        return dict(self.read_meta().get("used", {}))
 
     def map_again(self, run: RunContext = RunContext(), image_dir: Path | None = None,
                   align_to: Workspace | None = None, touched: frozenset[int] | None = None,

@@ -6,10 +6,12 @@ from pathlib import Path
 
 from guided_sfm.core.types import Progress, no_progress
 from guided_sfm.sample import writer
+from guided_sfm.sample.hall import HALL_LAYOUTS
 from guided_sfm.sample.layouts import LAYOUT_BUILDERS
 from guided_sfm.sample.objects import OBJECT_LAYOUTS
 
 LAYOUT_BUILDERS.update(OBJECT_LAYOUTS)  # the writer renders any layout registered here
+LAYOUT_BUILDERS.update(HALL_LAYOUTS)
 LAYOUTS = dict(LAYOUT_BUILDERS)
 DEFAULT_LAYOUT = "murals"
 

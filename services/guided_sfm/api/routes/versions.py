@@ -13,6 +13,7 @@ from guided_sfm.actions import export as export_action
 from guided_sfm.actions import lookup, project_settings, version_data
 from guided_sfm.actions import restore as restore_action
 from guided_sfm.actions.activity import record
+from guided_sfm.api.compression import accepts_gzip
 from guided_sfm.api.deps import (
     ActorDep,
     CurrentUser,
@@ -52,7 +53,7 @@ def scene(version: ViewerVersion, session: SessionDep, store: StoreDep, request:
     if tag in request.headers.get("if-none-match", ""):
         return Response(status_code=304, headers=headers)
     data = version_data.scene_json(session, store, version)
-    if "gzip" in request.headers.get("accept-encoding", ""):
+    if accepts_gzip(request):
         return Response(_gzipped(data), media_type="application/json",
                         headers={**headers, "Content-Encoding": "gzip"})
     return Response(data, media_type="application/json", headers=headers)

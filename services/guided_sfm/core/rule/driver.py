@@ -101,6 +101,9 @@ def _default_rule(rule_input: RuleInput) -> Removals:
     tolerances = rule_input.tolerances
     placement = placement_test(flat, motions, evidence, tolerances)
     relative_pose = relative_pose_test(flat, motions, evidence, tolerances)
+    # Matches that agree with the model, and placements that keep the pair's relative pose within
+    # the user's uncertainty: the carried angle then measures the placement error, not the pair.
+    placement.removed[relative_pose.judged & ~relative_pose.removed] = False
     rotation = rotation_test(flat, motions, evidence, tolerances,
                              placement.removed | relative_pose.removed)
     frustum = np.zeros(len(tested), dtype=bool)

@@ -40,6 +40,13 @@ RING = 16  # translation directions sampled on the rim of the placed baseline's 
 # reweighted least squares towards the smallest absolute residuals, which strays pull little.
 IRLS_STEPS, IRLS_FLOOR_DEG = 2, 0.05
 RECHECKED_CANDIDATES = 5  # of the YAW_STEPS rotations, those with the lowest RMS
+# A pair between two moved cameras is judged by its own two-view pose even where the model already
+# agrees with the placements: a run folded as a whole (both members turned alike) keeps its relative
+# rotation, and its look-alike pairs pass the epipolar stage along the ring. Strong pairs only: their
+# pose is well determined, and the per-pair check stays within the preview's time. A vectorised
+# linear (8-point) pose screens them first; noisy, it is trusted only when within half of
+# two_view_deg of the placement (orbit round 1: a false pair at 12.8 deg linear was 61 deg off).
+BOTH_MOVED_MIN_INLIERS = 60
 # [t]x = sum_m t_m GENERATORS[m]
 GENERATORS = np.array([[[0, 0, 0], [0, 0, -1], [0, 1, 0]],
                        [[0, 0, 1], [0, 0, 0], [-1, 0, 0]],
@@ -168,24 +175,35 @@ def rotation_test(flat: FlatMatches, motions: Motions, evidence: Evidence,
                          motions.moved_members(rows))
     candidates = yaw_candidates(motions, rows, span)
     cones = baseline_cones(motions, rows, tolerances)
+    moments = epipolar_moments(rays[0], rays[1], pair, len(chosen))
     out, residual[chosen] = _epipolar_verdict(rays, pair, flat.counts[chosen], candidates, cones,
-                                              tolerances)
+                                              tolerances, moments)
     model_rel = evidence.rotations[rows[:, 1]] @ np.swapaxes(evidence.rotations[rows[:, 0]], 1, 2)
-    turned = ~out & reoriented(model_rel, candidates, span)
+    both = (motions.moved_members(rows) == 2) & (flat.inliers[chosen] >= BOTH_MOVED_MIN_INLIERS)
+    both[both] = linear_disagreement(moments[both], candidates[both]) > tolerances.two_view_deg / 2
+    check = ~out & (reoriented(model_rel, candidates, span) | both)
     if decided is not None:
-        turned &= ~decided[chosen]
-    bounds = np.searchsorted(pair, np.arange(len(chosen) + 1))
-    for index in np.flatnonzero(turned):
-        block = slice(bounds[index], bounds[index + 1])
-        disagreement = two_view_disagreement(rays[0][block], rays[1][block], candidates[index],
-                                             cones[0][index], cones[1][index])
-        out[index] = disagreement > tolerances.two_view_deg
+        check &= ~decided[chosen]
+    out |= _two_view_verdict(rays, pair, np.flatnonzero(check), candidates, cones, tolerances)
     removed[chosen] = out
     return Verdicts(removed, judged, residual)
 
 
-def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Tolerances
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def _two_view_verdict(rays, pair: np.ndarray, indices: np.ndarray, candidates: np.ndarray,
+                      cones, tolerances: Tolerances) -> np.ndarray:
+    """(P,) removed by the two-view stage, run on the pairs at `indices` one at a time."""
+    out = np.zeros(len(candidates), dtype=bool)
+    bounds = np.searchsorted(pair, np.arange(len(candidates) + 1))
+    for index in indices:
+        block = slice(bounds[index], bounds[index + 1])
+        disagreement = two_view_disagreement(rays[0][block], rays[1][block], candidates[index],
+                                             cones[0][index], cones[1][index])
+        out[index] = disagreement > tolerances.two_view_deg
+    return out
+
+
+def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Tolerances,
+                      moments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(removed, residual deg): no rotation in the yaw range explains the matches (vectorised).
 
     The residual is the RMS under the best pose; where that is above the limit, the pair is
@@ -193,7 +211,6 @@ def _epipolar_verdict(rays, pair, counts, candidates, cones, tolerances: Toleran
     most of its matches, though a minority (look-alikes in a true pair, by design.md's definition
     up to half of them, or rays a slightly wrong model tilt leaves off) pushes the RMS past it.
     """
-    moments = epipolar_moments(rays[0], rays[1], pair, len(counts))
     rms = epipolar_rms(moments, counts, candidates, *cones)
     residual = np.degrees(np.arcsin(np.minimum(rms.min(axis=1), 1.0)))
     limit = np.degrees(np.minimum(np.maximum(
@@ -230,6 +247,21 @@ def robust_residual(rays, pair, candidates, cones) -> np.ndarray:
         weight = 1.0 / np.maximum(degrees, IRLS_FLOOR_DEG)
     medians = [segment_median(degrees[:, k], pair, count) for k in range(degrees.shape[1])]
     return np.min(medians, axis=0)
+
+
+def linear_disagreement(moments: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+    """(P,) degrees between the nearest candidate (P, K, 3, 3) and either rotation of the pair's
+    linear (8-point) essential matrix: a vectorised screen before the costlier two-view stage;
+    a pair whose linear pose is near the placement is not checked further."""
+    if len(moments) == 0:
+        return np.zeros(0)
+    _, vectors = np.linalg.eigh(moments)
+    u, _, vt = np.linalg.svd(vectors[..., 0].reshape(-1, 3, 3))
+    u = u * np.sign(np.linalg.det(u))[:, None, None]
+    vt = vt * np.sign(np.linalg.det(vt))[:, None, None]
+    turn = np.array([[0, -1.0, 0], [1, 0, 0], [0, 0, 1]])
+    twisted = np.stack([u @ turn @ vt, u @ turn.T @ vt], axis=1)  # E = [t]x R has two R
+    return rotation_angles_deg(twisted[:, :, None], candidates[:, None]).min(axis=(1, 2))
 
 
 def reoriented(model_rel: np.ndarray, candidates: np.ndarray, span_deg: np.ndarray) -> np.ndarray:
