@@ -35,11 +35,15 @@ function crumbs(items) {
 
 const LIST_REFRESH_MS = 15000; // the project list looks again for projects you were added to
 
-// Nothing of the page left behind carries over to the next: notices, the job, typed fields.
-function forgetPage() {
+// Nothing of the page left behind carries over to another project: notices, the job, typed
+// fields, the upload's report. Reopening the same project (after an upload, a job, a restore)
+// keeps them: they report what just happened there.
+function forgetPage(nextProjectId = null) {
+  const same = nextProjectId !== null && page?.store.project?.id === nextProjectId;
   page?.close();
   page = null;
   clearTimeout(showProjects.timer);
+  if (same) return;
   $("notice").hidden = true;
   jobStatus.clear();
   for (const form of document.querySelectorAll("#view-project form")) form.reset();
@@ -48,7 +52,8 @@ function forgetPage() {
 }
 
 async function route() {
-  forgetPage();
+  const match = session.token ? /^#\/p\/(\d+)(?:\/v\/(\d+))?/.exec(location.hash) : null;
+  forgetPage(match ? Number(match[1]) : null);
   if (session.token) inbox.start();
   else inbox.stop();
   if (!session.token) {
@@ -56,7 +61,6 @@ async function route() {
     show("view-auth");
     return;
   }
-  const match = /^#\/p\/(\d+)(?:\/v\/(\d+))?/.exec(location.hash);
   if (!match) return showProjects();
   show("view-project");
   const current = new ProjectPage($("view-project"), { jobStatus, notify, username: session.username });

@@ -139,12 +139,13 @@ export class DraftSync {
     const when = current.updated_at ? new Date(current.updated_at).toLocaleTimeString() : "just now";
     const merged = mergeOnto(current, this.kept ?? EMPTY, this.draft.body(this.store.version.id));
     this.adopt(current);
+    this.draft.load(merged); // on screen before the save: keys pressed meanwhile build on the merge
     try {
       await this.put(merged);
-      this.draft.load(merged);
       this.notify(`${who} changed these edits at ${when}; your change was merged onto theirs and saved.`,
         "warning");
     } catch (error) {
+      this.draft.load(current);
       this.notify(`${who} changed these edits at ${when}; your last change was not kept ` +
         `(${error.message}). Their version is on screen.`, "error");
     }
@@ -167,19 +168,27 @@ export class DraftSync {
 
 const newest = (list) => [...list].sort((a, b) => (b.updated_at ?? "").localeCompare(a.updated_at ?? ""))[0];
 
+// A camera edit in the contract's fields only: the server's copy carries no others today, but
+// the request refuses unknown fields, and equal edits must compare equal.
+const cameraEdit = (c) => ({ image_id: c.image_id, x: c.x, y: c.y, yaw_deg: c.yaw_deg,
+  fov_deg: c.fov_deg ?? null, range: c.range ?? null });
+
 // `mine` differs from `kept` (what the server had when we last saved) by this page's changes:
-// apply just those to `theirs`, a newer body, so neither side's work is lost.
+// apply just those to `theirs`, a newer body, so neither side's work is lost. The result is a
+// request body: none of the server's answer fields (id, revision, updated_by, ...) which a PUT
+// refuses with 422.
 export function mergeOnto(theirs, kept, mine) {
-  const byId = (body) => new Map((body.cameras ?? []).map((c) => [c.image_id, c]));
+  const byId = (body) => new Map((body.cameras ?? []).map((c) => [c.image_id, cameraEdit(c)]));
   const [cameras, before, now] = [byId(theirs), byId(kept), byId(mine)];
   for (const [id, cam] of now) if (JSON.stringify(cam) !== JSON.stringify(before.get(id))) cameras.set(id, cam);
   for (const id of before.keys()) if (!now.has(id)) cameras.delete(id);
   const keys = (body) => new Set((body.delete_pairs ?? []).map(([a, b]) => pairKey(a, b)));
   const pairs = applyDelta(keys(theirs), keys(kept), keys(mine));
   const flags = applyDelta(new Set(theirs.flags ?? []), new Set(kept.flags ?? []), new Set(mine.flags ?? []));
-  return { ...theirs, base_version_id: mine.base_version_id, cameras: [...cameras.values()],
+  return { base_version_id: mine.base_version_id, cameras: [...cameras.values()],
     delete_pairs: [...pairs].map((k) => k.split("-").map(Number)), flags: [...flags],
-    rule: (mine.rule ?? "default") !== (kept.rule ?? "default") ? mine.rule : theirs.rule };
+    rule: (mine.rule ?? "default") !== (kept.rule ?? "default") ? mine.rule : theirs.rule ?? "default",
+    tolerances: theirs.tolerances ?? {} };
 }
 
 function applyDelta(theirs, before, now) {

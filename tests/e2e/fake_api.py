@@ -29,6 +29,20 @@ def camera(image_id: int, x: float | None, registered: bool = True, y: float = 0
             "center": [x, y, 0.0] if placed else None, "qvec": [1.0, 0.0, 0.0, 0.0] if placed else None}
 
 
+EDIT_FIELDS = {"base_version_id", "cameras", "delete_pairs", "flags", "rule", "tolerances"}
+CAMERA_FIELDS = {"image_id", "x", "y", "yaw_deg", "fov_deg", "range"}
+
+
+def extra_fields(request) -> list[str]:
+    """The fields of an edit-set body the real API refuses (its request models forbid extras)."""
+    body = request.post_data_json
+    if not isinstance(body, dict):
+        return []
+    extra = sorted(set(body) - EDIT_FIELDS)
+    cameras = body.get("cameras") if isinstance(body.get("cameras"), list) else []
+    return extra + [f"cameras.{i}.{k}" for i, c in enumerate(cameras) for k in sorted(set(c) - CAMERA_FIELDS)]
+
+
 class FakeApi:
     """Project 1 with five cameras in a row (ids 1-5), one unregistered image (6), seven pairs.
 
@@ -118,6 +132,8 @@ class FakeApi:
             return 200, PNG
         if path.startswith("/projects/1/edits") and method in ("POST", "PUT") and self.refuse_edits:
             return 403, {"detail": "your role in project 1 is viewer; this needs editor"}
+        if path.startswith("/projects/1/edits") and method in ("POST", "PUT") and extra_fields(request):
+            return 422, {"detail": f"{extra_fields(request)[0]}: Extra inputs are not permitted"}
         if path.startswith("/projects/1/images/") and method == "DELETE":
             image_id = int(path.rsplit("/", 1)[1])
             if any(c["image_id"] == image_id and c["center"] for c in self.cameras):
