@@ -34,13 +34,10 @@ FRUSTUM_RGB, MOVED_RGB, BACKGROUND_RGB = (0x2B, 0x6C, 0xB0), (0xDD, 0x6B, 0x20),
 
 
 @pytest.fixture(scope="module")
-def gl_browser() -> Iterator[object]:
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), args=GL_ARGS)
-        yield chromium
-        chromium.close()
+def gl_browser(playwright_driver) -> Iterator[object]:
+    chromium = playwright_driver.chromium.launch(executable_path=str(CHROMIUM), args=GL_ARGS)
+    yield chromium
+    chromium.close()
 
 
 @pytest.fixture(scope="module")
