@@ -184,31 +184,34 @@ def cmd_demo(args: argparse.Namespace) -> None:
         demo.print_report(result)
 
 
+# The engine's options, shared by reconstruct (all), map (mapper, threads) and demo (matcher).
+SFM_ARGS = [("--matcher", {"choices": ["auto", "exhaustive", "sequential", "retrieval"],
+                           "default": "auto",
+                           "help": "auto: exhaustive up to a number of images, retrieval above "
+                                   "it (docs/engine.md)"}),
+            ("--mapper", {"choices": ["incremental", "global", "hierarchical"],
+                          "default": "incremental"}),
+            ("--threads", {"type": int, "default": None}),
+            ("--features", {"choices": ["standard", "colmap"], "default": "standard",
+                            "help": "colmap: COLMAP's own SIFT octaves and threshold, about "
+                                    "2x slower (see docs/engine.md)"})]
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="guided-sfm", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="show COLMAP's own log")
     sub = parser.add_subparsers(dest="command", required=True)
     _add(sub, "sample", cmd_sample, "render a sample scene with ground truth",
          [("out_dir",), ("--layout", {"default": None}), ("--seed", {"type": int, "default": 0})])
-    sfm_args = [("--matcher", {"choices": ["auto", "exhaustive", "sequential", "retrieval"],
-                               "default": "auto",
-                               "help": "auto: exhaustive up to a number of images, retrieval above "
-                                       "it (docs/engine.md)"}),
-                ("--mapper", {"choices": ["incremental", "global", "hierarchical"],
-                              "default": "incremental"}),
-                ("--threads", {"type": int, "default": None}),
-                ("--features", {"choices": ["standard", "colmap"], "default": "standard",
-                                "help": "colmap: COLMAP's own SIFT octaves and threshold, about "
-                                        "2x slower (see docs/engine.md)"})]
     _add(sub, "reconstruct", cmd_reconstruct, "images -> COLMAP workspace",
-         [("images_dir",), ("workspace",), *sfm_args])
+         [("images_dir",), ("workspace",), *SFM_ARGS])
     _add(sub, "scene", cmd_scene, "the top-down scene of a workspace",
          [("workspace",), ("--json", {"action": "store_true"}), ("--png", {"default": None})])
     _add(sub, "prune", cmd_prune, "delete the pairs an edit set rules out into a new workspace",
          [("workspace",), ("edits",), ("new_workspace",),
           ("--dry-run", {"action": "store_true"}), ("--json", {"action": "store_true"})])
     _add(sub, "map", cmd_map, "map a workspace's database again",
-         [("workspace",), ("--cold", {"action": "store_true"}), *sfm_args[1:3]])
+         [("workspace",), ("--cold", {"action": "store_true"}), *SFM_ARGS[1:3]])
     _add(sub, "evaluate", cmd_evaluate, "the paper's metrics against ground truth",
          [("workspace",), ("--truth", {"required": True}), ("--reference-from", {"default": None}),
           ("--json", {"action": "store_true"})])
@@ -216,7 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
          [("--layout", {"default": None}), ("--seed", {"type": int, "default": 0}),
           ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": DEFAULT_RULE,
                                                                "choices": list(RULES)}),
-          ("--out", {"default": None}), ("--cold", {"action": "store_true"}), sfm_args[0],
+          ("--out", {"default": None}), ("--cold", {"action": "store_true"}), SFM_ARGS[0],
           ("--tolerance", {"action": "append", "metavar": "NAME=VALUE",
                            "help": "override one of the default rule's tolerances"}),
           ("--reuse", {"action": "store_true",

@@ -133,18 +133,7 @@ def murals(seed: int) -> Layout:
         hang(scene, art, x, width, -90.0, size, 1.5, flat=True)
     for x in (6.0, 17.0):
         hang(scene, art, x, 0.0, 90.0, size, 1.5, flat=True)
-    # the end of the corridor, seen all through the turn: a unique painting, notices, a cabinet
-    end = (3.0, 1.5)
-    board = scene.add_texture(tx.mural(rng, int(end[0] * WALL_TPM), int(end[1] * WALL_TPM)))
-    scene.quads.append(wall_quad((length - 0.01, 3.6, 1.55), 180.0, *end, board, flat=True))
-    cabinet = [scene.add_texture(tx.panel(rng, 240, 240)) for _ in range(2)]
-    scene.quads.extend(box_quads((length - 0.3, 1.0), (1.2, 0.6, 1.1), 180.0, *cabinet, flat=False))
-    # a free-standing stand gives the turn's views depth beyond the end wall's plane
-    stand = [scene.add_texture(tx.panel(rng, 160, 240)) for _ in range(2)]
-    scene.quads.extend(box_quads((length - 1.5, 4.9), (0.5, 0.6, 1.3), 200.0, *stand, flat=False))
-    for y in (0.8, 1.6, 5.4):
-        psize = (0.6, 0.85)
-        scene.quads.append(wall_quad((length - 0.01, y, 1.8), 180.0, *psize, _poster(scene, rng, psize)))
+    _corridor_end(scene, rng, length)
     for x, wall_y, facing in (
         (2.0, width, -90),
         (11.0, width, -90),
@@ -164,6 +153,22 @@ def murals(seed: int) -> Layout:
     keys = [(1.5, 3.3, 90.0), (20.6, 3.3, 90.0), (23.0, 3.0, 0.0), (20.6, 2.7, -90.0)]
     path, sway = walk([*keys, (4.5, 2.7, -90.0)], [23, 7, 7, 19], [12.0, 0.0, 0.0, 12.0])
     return Layout(scene, VGA, poses_along(path, rng, pitch=-12.0, sway=sway))
+
+
+def _corridor_end(scene: Scene, rng: np.random.Generator, length: float) -> None:
+    """The end of the murals corridor, seen all through the turn: a unique painting, notices, a
+    cabinet, and a free-standing stand that gives the turn's views depth beyond the end wall."""
+    end = (3.0, 1.5)
+    board = scene.add_texture(tx.mural(rng, int(end[0] * WALL_TPM), int(end[1] * WALL_TPM)))
+    scene.quads.append(wall_quad((length - 0.01, 3.6, 1.55), 180.0, *end, board, flat=True))
+    cabinet = [scene.add_texture(tx.panel(rng, 240, 240)) for _ in range(2)]
+    scene.quads.extend(box_quads((length - 0.3, 1.0), (1.2, 0.6, 1.1), 180.0, *cabinet, flat=False))
+    # a free-standing stand gives the turn's views depth beyond the end wall's plane
+    stand = [scene.add_texture(tx.panel(rng, 160, 240)) for _ in range(2)]
+    scene.quads.extend(box_quads((length - 1.5, 4.9), (0.5, 0.6, 1.3), 200.0, *stand, flat=False))
+    for y in (0.8, 1.6, 5.4):
+        psize = (0.6, 0.85)
+        scene.quads.append(wall_quad((length - 0.01, y, 1.8), 180.0, *psize, _poster(scene, rng, psize)))
 
 
 def office(seed: int) -> Layout:
