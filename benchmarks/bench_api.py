@@ -62,8 +62,14 @@ def wait_for_head(client: httpx.Client, timeout: float) -> tuple[int, int, int]:
     raise TimeoutError("the sample project has no reconstruction yet")
 
 
-async def one_client(base: str, headers: dict, route: str, until: float, pace: float, results: dict) -> None:
+async def one_client(base: str, headers: dict, route: str, until: float, pace: float, begin: float,
+                     results: dict) -> None:
+    """One poller: an untimed first request opens its connection, then it starts at `begin` (the
+    clients' begins spread over one pace, so that requests arrive at an even offered rate, not all
+    at one instant)."""
     async with httpx.AsyncClient(base_url=base, headers=headers, timeout=60) as client:
+        await client.get(route, headers={"Accept-Encoding": "gzip"})
+        await asyncio.sleep(max(0.0, begin - time.monotonic()))
         while time.monotonic() < until:
             started = time.perf_counter()
             try:
@@ -82,9 +88,10 @@ TeamRoute = tuple[str, str, dict | None]  # method, path, JSON body
 
 
 async def team_client(base: str, headers: dict, routes: list[TeamRoute], until: float, pace: float,
-                      results: dict) -> None:
-    """One member's editor: presence, then notifications, then presence again, ..."""
+                      begin: float, results: dict) -> None:
+    """One member's editor: presence, then notifications, then presence again, ... from `begin`."""
     async with httpx.AsyncClient(base_url=base, headers=headers, timeout=60) as client:
+        await asyncio.sleep(max(0.0, begin - time.monotonic()))
         index = 0
         while time.monotonic() < until:
             method, path, body = routes[index % len(routes)]
@@ -108,11 +115,14 @@ async def load(base: str, headers: dict, routes: list[str], clients: int, second
     members, team_routes, team_pace = team
     results = {route: {"ms": [], "errors": 0} for route in routes}
     results.update({f"{m} {p}": {"ms": [], "errors": 0} for m, p, _ in team_routes if members})
-    until = time.monotonic() + seconds
-    await asyncio.gather(*(one_client(base, headers, routes[i % len(routes)], until, pace, results)
+    start = time.monotonic() + 2.0  # every client's connection open before the clock starts
+    until = start + seconds
+    await asyncio.gather(*(one_client(base, headers, routes[i % len(routes)], until, pace,
+                                      start + pace * i / clients, results)
                            for i in range(clients)),
-                         *(team_client(base, member, team_routes, until, team_pace, results)
-                           for member in members))
+                         *(team_client(base, member, team_routes, until, team_pace,
+                                       start + team_pace * i / max(len(members), 1), results)
+                           for i, member in enumerate(members)))
     report = {}
     for route, data in results.items():
         report[route] = {"requests": len(data["ms"]), "errors": data["errors"],
