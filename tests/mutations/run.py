@@ -12,8 +12,10 @@ Exit status: 0 when every mutation is caught, 1 when any survives or fails to ap
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -45,6 +47,22 @@ def scratch_copy(target: Path) -> None:
             shutil.copy2(source, target / name)
 
 
+def stop_leftovers(copy: Path) -> None:
+    """Kill what a mutant left running: a server the tests started in a session of its own outlives
+    pytest when the mutant breaks its shutdown. Such processes run from the copy or import from it."""
+    for proc in Path("/proc").iterdir():
+        if not proc.name.isdigit() or int(proc.name) == os.getpid():
+            continue
+        try:
+            cwd = os.readlink(proc / "cwd")
+            environ = (proc / "environ").read_bytes()
+        except OSError:  # gone, or not ours to read
+            continue
+        if cwd.startswith(str(copy)) or f"PYTHONPATH={copy}".encode() in environ:
+            with contextlib.suppress(OSError):
+                os.kill(int(proc.name), signal.SIGKILL)
+
+
 def run_one(patch: Path) -> tuple[str, str, float]:
     """(result, detail, seconds) for one mutation: caught, SURVIVED or NOT APPLIED."""
     tests = header(patch, "catch")
@@ -60,6 +78,7 @@ def run_one(patch: Path) -> tuple[str, str, float]:
         result = subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
                                  *tests], cwd=copy, env=env, capture_output=True, text=True)
         seconds = time.monotonic() - start
+        stop_leftovers(copy)
     last = ((result.stdout + result.stderr).strip().splitlines() or [""])[-1]
     if result.returncode == 1:  # 1: tests ran and some failed
         return "caught", last, seconds
