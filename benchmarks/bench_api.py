@@ -62,6 +62,14 @@ def wait_for_head(client: httpx.Client, timeout: float) -> tuple[int, int, int]:
     raise TimeoutError("the sample project has no reconstruction yet")
 
 
+def record(result: dict, elapsed: float, status: str) -> None:
+    """One answer's latency; anything but a 200 is an error, counted by its status (or exception)."""
+    result["ms"].append(elapsed * 1000)
+    if status != "200":
+        result["errors"] += 1
+        result["error_kinds"][status] = result["error_kinds"].get(status, 0) + 1
+
+
 async def one_client(base: str, headers: dict, route: str, until: float, pace: float, begin: float,
                      results: dict) -> None:
     """One poller: an untimed first request opens its connection, then it starts at `begin` (the
@@ -73,13 +81,11 @@ async def one_client(base: str, headers: dict, route: str, until: float, pace: f
         while time.monotonic() < until:
             started = time.perf_counter()
             try:
-                response = await client.get(route, headers={"Accept-Encoding": "gzip"})
-                ok = response.status_code == 200
-            except httpx.HTTPError:
-                ok = False
+                status = str((await client.get(route, headers={"Accept-Encoding": "gzip"})).status_code)
+            except httpx.HTTPError as error:
+                status = type(error).__name__
             elapsed = time.perf_counter() - started
-            results[route]["ms"].append(elapsed * 1000)
-            results[route]["errors"] += 0 if ok else 1
+            record(results[route], elapsed, status)
             if pace > elapsed:
                 await asyncio.sleep(pace - elapsed)
 
@@ -98,12 +104,11 @@ async def team_client(base: str, headers: dict, routes: list[TeamRoute], until: 
             index += 1
             started = time.perf_counter()
             try:
-                ok = (await client.request(method, path, json=body)).status_code == 200
-            except httpx.HTTPError:
-                ok = False
+                status = str((await client.request(method, path, json=body)).status_code)
+            except httpx.HTTPError as error:
+                status = type(error).__name__
             elapsed = time.perf_counter() - started
-            results[f"{method} {path}"]["ms"].append(elapsed * 1000)
-            results[f"{method} {path}"]["errors"] += 0 if ok else 1
+            record(results[f"{method} {path}"], elapsed, status)
             if pace > elapsed:
                 await asyncio.sleep(pace - elapsed)
 
@@ -113,8 +118,8 @@ async def load(base: str, headers: dict, routes: list[str], clients: int, second
     """Client i reads routes[i % len(routes)] only: half the clients on each route; each member of
     `team` (their headers, the routes they cycle through, their pace) polls beside them."""
     members, team_routes, team_pace = team
-    results = {route: {"ms": [], "errors": 0} for route in routes}
-    results.update({f"{m} {p}": {"ms": [], "errors": 0} for m, p, _ in team_routes if members})
+    names = routes + [f"{method} {path}" for method, path, _ in team_routes if members]
+    results = {name: {"ms": [], "errors": 0, "error_kinds": {}} for name in names}
     start = time.monotonic() + 2.0  # every client's connection open before the clock starts
     until = start + seconds
     await asyncio.gather(*(one_client(base, headers, routes[i % len(routes)], until, pace,
@@ -126,6 +131,7 @@ async def load(base: str, headers: dict, routes: list[str], clients: int, second
     report = {}
     for route, data in results.items():
         report[route] = {"requests": len(data["ms"]), "errors": data["errors"],
+                         "error_kinds": data["error_kinds"],
                          "p50_ms": round(percentile(data["ms"], 0.5), 1),
                          "p99_ms": round(percentile(data["ms"], 0.99), 1)}
     total = sum(r["requests"] for r in report.values())

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import gc
 import logging
 import os
 import signal
@@ -21,6 +22,7 @@ from guided_sfm.settings import Settings
 log = logging.getLogger("guided_sfm.serve")
 RESTART_BACKOFF = (1, 2, 5, 10, 30)  # seconds before restarting a process that keeps dying
 STOP_GRACE = 15.0
+KEEP_ALIVE_SECONDS = 75
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -53,8 +55,23 @@ def cmd_api(args: argparse.Namespace) -> None:
     celery = make_celery(settings)
     app = create_app(settings, submitter(celery), readiness=functools.partial(readiness, settings, celery))
     _reconcile(app.state.sessions, settings)
+    _tune_gc()
     # proxy_headers off: the client address is ours to judge (GUIDED_SFM_TRUSTED_PROXIES, api/throttle.py)
-    uvicorn.run(app, host=args.host, port=args.port, log_level="info", proxy_headers=False)
+    # keep-alive beyond the editor's 10 s polls: at uvicorn's 5 s, an idle connection closed as the
+    # next poll was sent failed that request (bench_api: ReadError)
+    uvicorn.run(app, host=args.host, port=args.port, log_level="info", proxy_headers=False,
+                timeout_keep_alive=KEEP_ALIVE_SECONDS)
+
+
+def _tune_gc() -> None:
+    """Fewer, cheaper garbage collections while serving. A request allocates thousands of objects
+    (ORM rows, pydantic models), so the default threshold (700) collected every few requests, and each
+    full collection walked every module and route loaded at start, in a pause every request waited
+    out. Startup's objects are frozen out of collection; bench_api (34 s under load): 1,112 -> 386
+    collections, 1.8 -> 0.7 s spent collecting."""
+    gc.collect()
+    gc.freeze()
+    gc.set_threshold(50_000, 50, 100)
 
 
 def _reconcile(sessions, settings: Settings) -> None:
