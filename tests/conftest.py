@@ -138,3 +138,13 @@ def tiny_reconstruction(tiny_images, tmp_path_factory) -> Path:
 def copy_images(source: Path, target: Path) -> Path:
     shutil.copytree(source, target)
     return target
+
+
+@pytest.fixture(scope="session")
+def moto_server(tmp_path_factory):
+    """A real S3 endpoint (moto's server mode in a subprocess on a free port) for the whole run."""
+    from tests.s3server import MotoServer
+
+    server = MotoServer(tmp_path_factory.mktemp("moto") / "moto.log")
+    yield server
+    server.stop()
