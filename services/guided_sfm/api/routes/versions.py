@@ -45,14 +45,18 @@ def list_versions(project: ViewerProject, session: SessionDep) -> list[VersionOu
 
 
 @router.get("/{vid}/scene", response_model=dict[str, Any])
-def scene(version: ViewerVersion, session: SessionDep, store: StoreDep, request: Request) -> Response:
+def scene(version: ViewerVersion, session: SessionDep, store: StoreDep, request: Request,
+          max_points: Annotated[int | None, Query(ge=1, le=version_data.FULL_POINTS)] = None
+          ) -> Response:
     """The top-down scene: a version never changes, so it is cached, tagged (304 when the client
-    has it) and sent gzipped to clients that take it."""
-    tag = f'"scene-{version.id}-{PurePosixPath(version.path).name}"'
+    has it) and sent gzipped to clients that take it. Its point layer is decimated to the
+    server's level of detail unless `max_points` asks for another (see version_data)."""
+    level = "" if max_points is None else f"-p{max_points}"
+    tag = f'"scene-{version.id}-{PurePosixPath(version.path).name}{level}"'
     headers = {"ETag": tag, "Cache-Control": "private, max-age=0, must-revalidate", "Vary": "Accept-Encoding"}
     if tag in request.headers.get("if-none-match", ""):
         return Response(status_code=304, headers=headers)
-    data = version_data.scene_json(session, store, version)
+    data = version_data.scene_json(session, store, version, max_points)
     if accepts_gzip(request):
         return Response(_gzipped(data), media_type="application/json",
                         headers={**headers, "Content-Encoding": "gzip"})
