@@ -71,8 +71,15 @@ def _gzipped(data: bytes) -> bytes:
 
 @router.get("/{vid}/pairs", response_model=list[PairOut])
 def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep, page: PageDep,
-          image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> list[dict]:
-    return page.of(version_data.pairs(session, store, version, image_id))
+          response: Response, image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None,
+          order: Literal["pair", "inliers"] = "pair") -> list[dict]:
+    """Verified pairs by image ids (v1), or most inliers first (`order=inliers`, what the matches
+    panel pages through); `X-Total-Count` is the number before `limit`/`offset`."""
+    rows = version_data.pairs(session, store, version, image_id)
+    if order == "inliers":
+        rows.sort(key=lambda row: -row["num_inliers"])  # stable: ties stay in pair order
+    response.headers["X-Total-Count"] = str(len(rows))
+    return page.of(rows)
 
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)
