@@ -172,7 +172,8 @@ def test_a_batch_sent_again_adds_nothing_and_answers_201(client, owner_pid, sess
     assert {n: i["already_uploaded"] for n, i in by_name.items()} == {"a.jpg": True, "b.jpg": True,
                                                                         "c.jpg": False}
     assert {i["name"]: i["id"] for i in first.json()} == {n: by_name[n]["id"] for n in ("a.jpg", "b.jpg")}
-    assert sorted(i.name for i in session.query(Image).filter_by(project_id=pid)) == ["a.jpg", "b.jpg", "c.jpg"]
+    names = sorted(i.name for i in session.query(Image).filter_by(project_id=pid))
+    assert names == ["a.jpg", "b.jpg", "c.jpg"]
     stored = settings.artifacts_dir / "projects" / str(pid) / "images"
     assert sorted(p.name for p in stored.iterdir()) == ["a.jpg", "b.jpg", "c.jpg"]
     uploads = client.get(f"/api/v1/projects/{pid}/activity?action=upload", headers=headers).json()
