@@ -2,6 +2,28 @@
 import { del, post, upload } from "./api.js";
 
 const BATCH = 8; // images per upload request
+const BATCH_BYTES = 64 * 1024 * 1024; // and bytes: eight 12 Mpx photos, far under the server's cap
+
+// Consecutive batches of at most `count` files and `bytes` (a larger file goes alone).
+export function batchesOf(files, count = BATCH, bytes = BATCH_BYTES) {
+  const batches = [];
+  let size = 0;
+  for (const file of files) {
+    const last = batches.at(-1);
+    if (!last || last.length >= count || size + file.size > bytes) {
+      batches.push([file]);
+      size = file.size;
+    } else {
+      last.push(file);
+      size += file.size;
+    }
+  }
+  return batches;
+}
+
+// A batch lost on the way (network, 5xx) is sent again whole: the server answers a file it
+// already stored (same name and bytes) as `already_uploaded`, never a duplicate or a 409.
+const worthResending = (error) => error.status === 0 || error.status >= 500;
 
 // "x.jpg (not a readable JPEG or PNG image)": the server's detail names the file first already.
 const reason = (name, detail) => (detail.startsWith(`${name}:`) ? detail : `${name} (${detail})`);
@@ -27,8 +49,7 @@ export class UploadPanel {
     if (!files.length) return this.notify("Choose images (or one .zip) first.");
     this.bar.hidden = false;
     this.setProgress(0);
-    const batches = [];
-    for (let i = 0; i < files.length; i += BATCH) batches.push(files.slice(i, i + BATCH));
+    const batches = batchesOf(files);
     const stored = [];
     const refused = [];
     let done = 0;
@@ -41,7 +62,9 @@ export class UploadPanel {
     }
     this.bar.hidden = !stored.length; // no full bar beside a failure
     this.setProgress(1);
+    const again = stored.filter((image) => image.already_uploaded).length;
     this.status.textContent = (stored.length ? `Uploaded ${stored.length} images.` : "Nothing was uploaded.") +
+      (again ? ` ${again} of them were already in the project (kept once).` : "") +
       (refused.length ? ` Not uploaded: ${refused.join("; ")}.` : "");
     this.root.dataset.uploaded = String(stored.length);
     this.root.dataset.refused = String(refused.length);
@@ -56,7 +79,10 @@ export class UploadPanel {
       return upload(`/projects/${this.projectId}/images`, data, progress);
     };
     try {
-      return { stored: await post1(batch), refused: [] };
+      return { stored: await post1(batch).catch((error) => {
+        if (!worthResending(error)) throw error;
+        return post1(batch);
+      }), refused: [] };
     } catch (error) {
       if (batch.length === 1) return { stored: [], refused: [reason(batch[0].name, error.message)] };
       const out = { stored: [], refused: [] };

@@ -12,8 +12,9 @@ server's status and detail; a job that fails or is cancelled raises JobFailed fr
 
 from __future__ import annotations
 
+import hashlib
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,8 @@ import httpx
 Json = dict[str, Any]
 ENDED = ("succeeded", "failed", "cancelled")
 UPLOAD_BATCH = 20  # files per request: each request is all-or-nothing, so a bad file costs one batch
+UPLOAD_BATCH_MB = 100  # bytes per request, far under the server's cap (1,024 MB by default); a 413 halves it
+UPLOAD_RETRIES = 3  # a batch lost on the network or to a 5xx is sent again (the server skips what it has)
 
 
 class ApiError(Exception):
@@ -43,8 +46,10 @@ class JobFailed(Exception):
 class Client:
     """One server, one bearer token (a personal access token, or a session token from sign_in)."""
 
-    def __init__(self, url: str, token: str | None = None, timeout: float = 60.0) -> None:
-        self.http = httpx.Client(base_url=url.rstrip("/") + "/api/v1", timeout=timeout)
+    def __init__(self, url: str, token: str | None = None, timeout: float = 60.0,
+                 transport: httpx.BaseTransport | None = None) -> None:
+        self.http = httpx.Client(base_url=url.rstrip("/") + "/api/v1", timeout=timeout,
+                                 transport=transport)
         if token:
             self.http.headers["Authorization"] = f"Bearer {token}"
 
@@ -107,22 +112,51 @@ class Client:
         return self.request("GET", f"/projects/{pid}/images")
 
     def upload(self, pid: int, files: Iterable[Path], batch: int = UPLOAD_BATCH,
-               progress: Callable[[int, int], None] | None = None) -> list[Json]:
-        """Upload in batches of `batch` files; `progress(done, total)` after each batch."""
+               progress: Callable[[int, int], None] | None = None,
+               batch_mb: float = UPLOAD_BATCH_MB, retries: int = UPLOAD_RETRIES) -> list[Json]:
+        """Upload in batches of at most `batch` files and `batch_mb` MB; `progress(done, total)`
+        (files) after each. Resumable: files the project already has (same name and SHA-256) are
+        not sent again but listed as `already_uploaded`; a batch that fails on the network or with
+        a 5xx is sent again (the server recognises what it stored); a 413 splits the batch."""
         paths = [Path(f) for f in files]
-        created: list[Json] = []
-        for start in range(0, len(paths), batch):
-            chunk = paths[start:start + batch]
-            handles = [path.open("rb") for path in chunk]
-            try:
-                parts = [("files", (path.name, handle)) for path, handle in zip(chunk, handles, strict=True)]
-                created += self.request("POST", f"/projects/{pid}/images", files=parts)
-            finally:
-                for handle in handles:
-                    handle.close()
+        known = {image["name"]: image for image in self.images(pid)}
+        created = [{**known[p.name], "already_uploaded": True} for p in paths if _has(known, p)]
+        todo = [p for p in paths if not _has(known, p)]
+        done = len(created)
+        if progress and done:
+            progress(done, len(paths))
+        for chunk in _batches(todo, batch, int(batch_mb * (1 << 20))):
+            created += self._send_batch(pid, chunk, retries)
+            done += len(chunk)
             if progress:
-                progress(start + len(chunk), len(paths))
+                progress(done, len(paths))
         return created
+
+    def _send_batch(self, pid: int, chunk: list[Path], retries: int) -> list[Json]:
+        for attempt in range(retries + 1):
+            try:
+                return self._post_files(pid, chunk)
+            except ApiError as exc:
+                if exc.status == 413 and len(chunk) > 1:  # over the server's cap: halves
+                    half = len(chunk) // 2
+                    return self._send_batch(pid, chunk[:half], retries) + \
+                        self._send_batch(pid, chunk[half:], retries)
+                if exc.status < 500 or attempt == retries:
+                    raise
+            except httpx.TransportError:
+                if attempt == retries:
+                    raise
+            time.sleep(min(2.0 ** attempt, 10.0))
+        raise AssertionError("unreachable")
+
+    def _post_files(self, pid: int, chunk: list[Path]) -> list[Json]:
+        handles = [path.open("rb") for path in chunk]
+        try:
+            parts = [("files", (path.name, handle)) for path, handle in zip(chunk, handles, strict=True)]
+            return self.request("POST", f"/projects/{pid}/images", files=parts)
+        finally:
+            for handle in handles:
+                handle.close()
 
     # jobs
     def reconstruct(self, pid: int, **options: Any) -> Json:
@@ -198,6 +232,36 @@ class Client:
     def apply(self, pid: int, eid: int, remap: bool = True) -> Json:
         """Queue the edit set's apply (prune, and map again when `remap`); the job."""
         return self.request("POST", f"/projects/{pid}/edits/{eid}/apply", json={"remap": remap})
+
+
+def file_sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as source:
+        while chunk := source.read(1 << 20):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def _has(known: dict[str, Json], path: Path) -> bool:
+    """Whether the project holds this file already: same name and bytes (a name with other bytes
+    is sent, and the server's 409 names it)."""
+    image = known.get(path.name)
+    return image is not None and image.get("sha256") == file_sha256(path)
+
+
+def _batches(paths: list[Path], most: int, most_bytes: int) -> Iterator[list[Path]]:
+    """Consecutive batches of at most `most` files and `most_bytes` (a larger file goes alone)."""
+    chunk: list[Path] = []
+    size = 0
+    for path in paths:
+        length = path.stat().st_size
+        if chunk and (len(chunk) >= most or size + length > most_bytes):
+            yield chunk
+            chunk, size = [], 0
+        chunk.append(path)
+        size += length
+    if chunk:
+        yield chunk
 
 
 def with_image_ids(edits: Json, images: list[Json]) -> Json:

@@ -81,8 +81,11 @@ def cmd_upload(client: Client, args: argparse.Namespace) -> None:
     if not files:
         raise DomainError("no JPEG or PNG files given")
     with tqdm(total=len(files), desc="upload", unit="file", file=sys.stderr, leave=False) as bar:
-        created = client.upload(args.pid, files, args.batch, lambda done, _total: bar.update(done - bar.n))
-    show(args, {"uploaded": len(created)}, [("uploaded", len(created))])
+        created = client.upload(args.pid, files, args.batch, lambda done, _total: bar.update(done - bar.n),
+                                batch_mb=args.batch_mb)
+    again = sum(1 for image in created if image.get("already_uploaded"))
+    result = {"uploaded": len(created) - again} | ({"already_uploaded": again} if again else {})
+    show(args, result, list(result.items()))
 
 
 def _images(path: Path) -> list[Path]:
@@ -160,7 +163,9 @@ COMMANDS = [
     ("projects", cmd_projects, "the projects you have a role in", [JSON]),
     ("create", cmd_create, "create a project", [("name",), JSON]),
     ("upload", cmd_upload, "upload images (files or folders) in batches",
-     [PID, ("files", {"nargs": "+"}), ("--batch", {"type": int, "default": 20}), JSON]),
+     [PID, ("files", {"nargs": "+"}), ("--batch", {"type": int, "default": 20}),
+      ("--batch-mb", {"type": float, "default": 100.0,
+                      "help": "MB per request (under the server's upload cap)"}), JSON]),
     ("reconstruct", cmd_reconstruct, "reconstruct from scratch and wait",
      [PID, ("--matcher", {"default": None}), ("--mapper", {"default": None}), NO_WAIT, JSON]),
     ("wait", cmd_wait, "wait for a job", [("job_id", {"type": int}), JSON]),

@@ -121,9 +121,10 @@ def test_declared_body_over_the_limit_is_413_before_reading(small_client):
 
 
 def test_existing_name_is_409_and_nothing_stored(client, owner_pid, session, settings):
+    """An existing name with other bytes (the same bytes are a batch sent again: see below)."""
     headers, pid = owner_pid
     assert post(client, headers, pid, [("files", ("a.jpg", jpeg_bytes(), "image/jpeg"))]).status_code == 201
-    files = [("files", (name, jpeg_bytes(), "image/jpeg")) for name in ("b.jpg", "a.jpg")]
+    files = [("files", (name, jpeg_bytes(color=(1, 2, 3)), "image/jpeg")) for name in ("b.jpg", "a.jpg")]
     response = post(client, headers, pid, files)
     assert response.status_code == 409 and "a.jpg" in response.json()["detail"]
     assert [i.name for i in session.query(Image).filter_by(project_id=pid)] == ["a.jpg"]
@@ -155,3 +156,37 @@ def test_an_orphan_file_without_a_row_is_replaced_by_the_next_upload(client, own
     response = post(client, headers, pid, [("files", ("a.jpg", jpeg_bytes(), "image/jpeg"))])
     assert response.status_code == 201, response.text
     assert orphan.read_bytes() == jpeg_bytes()
+
+
+def test_a_batch_sent_again_adds_nothing_and_answers_201(client, owner_pid, session, settings):
+    """Idempotent by name and content: the lost answer of a batch is no reason for a 409."""
+    headers, pid = owner_pid
+    batch = [("files", (name, jpeg_bytes(color=(i, 9, 9)), "image/jpeg"))
+             for i, name in enumerate(("a.jpg", "b.jpg"))]
+    first = post(client, headers, pid, batch)
+    assert first.status_code == 201 and not any(i["already_uploaded"] for i in first.json())
+    assert all(len(i["sha256"]) == 64 for i in first.json())
+    again = post(client, headers, pid, batch + [("files", ("c.jpg", jpeg_bytes(), "image/jpeg"))])
+    assert again.status_code == 201, again.text
+    by_name = {i["name"]: i for i in again.json()}
+    assert {n: i["already_uploaded"] for n, i in by_name.items()} == {"a.jpg": True, "b.jpg": True,
+                                                                        "c.jpg": False}
+    assert {i["name"]: i["id"] for i in first.json()} == {n: by_name[n]["id"] for n in ("a.jpg", "b.jpg")}
+    names = sorted(i.name for i in session.query(Image).filter_by(project_id=pid))
+    assert names == ["a.jpg", "b.jpg", "c.jpg"]
+    stored = settings.artifacts_dir / "projects" / str(pid) / "images"
+    assert sorted(p.name for p in stored.iterdir()) == ["a.jpg", "b.jpg", "c.jpg"]
+    uploads = client.get(f"/api/v1/projects/{pid}/activity?action=upload", headers=headers).json()
+    assert [item["detail"]["count"] for item in uploads["items"]] == [1, 2]  # nothing logged twice
+
+
+def test_an_image_stored_before_hashes_is_recognised_by_its_file(client, owner_pid, session):
+    headers, pid = owner_pid
+    files = [("files", ("old.jpg", jpeg_bytes(), "image/jpeg"))]
+    assert post(client, headers, pid, files).status_code == 201
+    session.query(Image).filter_by(project_id=pid).update({"sha256": None})  # as before 0006
+    session.commit()
+    again = post(client, headers, pid, files)
+    assert again.status_code == 201 and again.json()[0]["already_uploaded"] is True
+    session.expire_all()
+    assert session.query(Image).filter_by(project_id=pid).one().sha256 == again.json()[0]["sha256"]

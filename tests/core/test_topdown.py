@@ -162,3 +162,19 @@ def test_synthetic_scene_is_deterministic(synthetic, tmp_path):
 def test_no_model_is_an_error(tmp_path):
     with pytest.raises(EmptyModel):
         _build([], [(1, "a.png")], tmp_path)
+
+
+def test_decimation_keeps_sparse_corners_and_dense_walls():
+    from guided_sfm.core.topdown import decimate_points
+    rng = np.random.default_rng(0)
+    wall = np.column_stack([rng.uniform(0, 10, 9000), rng.normal(0, 0.05, 9000)])
+    corner = rng.uniform([20, 20], [30, 30], (300, 2))
+    points = np.concatenate([wall, corner])
+    kept, cell = decimate_points(points, 1000)
+    assert len(kept) <= 1000 and cell > 0
+    near_corner = (kept[:, 0] > 19).sum()
+    assert 10 <= near_corner < 300  # the sparse corner keeps some points, the wall most of them
+    assert (kept[:, 0] <= 10).sum() > 5 * near_corner
+    assert {tuple(p) for p in kept} <= {tuple(p) for p in points}
+    same, no_cell = decimate_points(points, len(points))
+    assert no_cell == 0 and np.array_equal(same, points)

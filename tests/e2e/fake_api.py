@@ -63,6 +63,8 @@ class FakeApi:
         self.role, self.refuse_edits, self.jobs = role, refuse_edits, list(jobs)
         self.deleted = False
         self.uploads: list[list[str]] = []  # file names per upload request
+        self.stored_names: set[str] = set()
+        self.lose_next_upload = False  # store the next upload, then answer 502 (a lost answer)
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
         self.log: list[tuple[str, str]] = []
@@ -169,8 +171,13 @@ class FakeApi:
         bad = [n for n in names if n.startswith("bad")]
         if bad:
             return 422, {"detail": f"{bad[0]}: not a readable JPEG or PNG image (cannot identify image file)"}
-        return 201, [{"id": 100 + i, "name": n, "width": 8, "height": 8, "seq": i}
-                     for i, n in enumerate(names)]
+        answer = [{"id": 100 + i, "name": n, "width": 8, "height": 8, "seq": i,
+                   "already_uploaded": n in self.stored_names} for i, n in enumerate(names)]
+        self.stored_names |= set(names)  # idempotent by name here (the server also compares bytes)
+        if self.lose_next_upload:
+            self.lose_next_upload = False
+            return 502, {"detail": "bad gateway"}
+        return 201, answer
 
     def rebase(self, request) -> tuple[int, dict]:
         """Carry the edit set onto the head: cameras on the head's images, deletions of its pairs."""

@@ -216,3 +216,33 @@ def test_compare_with_a_version_in_another_frame_draws_no_arrows(page):
     assert summary["moved"] == "1" and summary["sharedFrame"] == "false"
     assert json.loads(summary["arrows"]) == [] and page.get_attribute("#scene", "data-arrows") == "0"
     assert "v1 is in another frame" in summary["text"]
+
+
+def test_matching_panel_pages_through_many_partners(page):
+    """A camera matched to 119 others (as at 1,000 cameras): 50 rows a page, most inliers first,
+    the pager moves through them, and another camera starts on its first page."""
+    fake = FakeApi()
+    fake.cameras = [camera(i, float(i - 1)) for i in range(1, 121)]
+    fake.pairs = {(1, j): 1000 - j for j in range(2, 121)} | {(2, 3): 10}
+    open_fake(page, fake)
+    page.locator("#strip .thumb[data-id='1']").click()
+    page.locator("#matching-panel summary").click()
+    rows = page.locator("#match-list li")
+    expect(rows).to_have_count(50)
+    expect(page.locator("#match-range")).to_have_text("1-50 of 119")
+    assert rows.first.get_attribute("data-pair") == "1-2"  # the most inliers
+    assert page.locator("#match-prev").is_disabled()
+    page.locator("#match-next").click()
+    expect(page.locator("#match-range")).to_have_text("51-100 of 119")
+    assert rows.first.get_attribute("data-pair") == "1-52"
+    page.locator("#match-next").click()
+    expect(rows).to_have_count(19)
+    assert page.locator("#match-next").is_disabled()
+    rows.nth(18).locator("input").check()
+    page.get_by_role("button", name="Delete selected matching").click()
+    assert saved(page, fake)["delete_pairs"] == [[1, 120]]
+    page.locator("#match-prev").click()
+    expect(page.locator("#match-range")).to_have_text("51-100 of 119")
+    page.locator("#strip .thumb[data-id='3']").click()
+    expect(rows).to_have_count(2)
+    assert page.locator("#match-pager").is_hidden()

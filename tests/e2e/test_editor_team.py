@@ -365,6 +365,29 @@ def test_an_upload_goes_in_batches_and_one_bad_file_costs_only_itself(page, cons
     assert [len(batch) for batch in fake.uploads] == [8, 1, 1, 1, 1, 1, 1, 1, 1, 2]
 
 
+def test_a_lost_upload_is_sent_again_and_batches_stay_under_the_bytes(page, console, tmp_path):
+    """The first batch's answer is lost (502 after the files were stored): the batch is sent
+    again whole and the server's `already_uploaded` keeps each image once. Batches are cut by
+    bytes as well as by count (12 Mpx photos: ~5-8 MB each)."""
+    console.allow.append("502")
+    fake = FakeApi()
+    fake.lose_next_upload = True
+    open_fake(page, fake)
+    names = [f"{i:02d}.jpg" for i in range(10)]
+    for name in names:
+        (tmp_path / name).write_bytes(b"\xff\xd8 a photo")
+    page.locator("#images-panel summary").click()
+    page.set_input_files("#upload-form input[type=file]", [str(tmp_path / n) for n in names])
+    page.get_by_role("button", name="Upload", exact=True).click()
+    page.wait_for_selector("#images-panel[data-uploaded='10'][data-refused='0']")
+    assert [len(batch) for batch in fake.uploads] == [8, 8, 2]  # the first batch twice, whole
+    assert "8 of them were already in the project" in page.inner_text("#upload-status")
+    sizes = [40e6, 30e6, 1e6, 1e6, 70e6, 5e6]
+    cut = page.evaluate("s => import('/js/upload.js').then((m) => m.batchesOf(s.map((size) => ({ size })))"
+                        ".map((b) => b.length))", sizes)
+    assert cut == [1, 3, 1, 1]  # 40 | 30+1+1 | 70 alone | 5
+
+
 def test_an_absurd_placement_is_warned_and_question_mark_opens_the_keys(page):
     fake = FakeApi()
     open_fake(page, fake)

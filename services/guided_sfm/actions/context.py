@@ -52,6 +52,7 @@ class NewImage:
     width: int
     height: int
     taken_at: str | None = None
+    sha256: str | None = None
 
 
 @dataclass

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
@@ -18,15 +19,25 @@ from guided_sfm.errors import Conflict
 from guided_sfm.storage import Blob, Store, image_key, thumb_key
 
 
+@dataclass(frozen=True)
+class Uploaded:
+    """An upload's outcome: the images it added, and those it sent again (same name and bytes as
+    an image already stored: kept as they were, so a batch that failed can be sent again)."""
+
+    added: list[Image]
+    already: list[Image]
+
+
 def upload(session: Session, store: Store, project: Project,
-           files: list[tuple[str, BinaryIO]], limit: int, max_mpx: int | None = None) -> list[Image]:
+           files: list[tuple[str, BinaryIO]], limit: int, max_mpx: int | None = None) -> Uploaded:
     """Check every uploaded file (and make its thumbnail) in staging with no transaction open, then
     store them all (or none) in one short write transaction."""
     project_id = project.id
     session.commit()  # staging a large upload takes long: hold no lock (SQLite's is the whole file)
     with store.staging(project_id, prefix="upload-") as staging:
-        checked = uploads.stage_images(files, staging, limit, max_mpx)
-        rows = _insert(session, project_id, checked)
+        checked = uploads.with_hashes(uploads.stage_images(files, staging, limit, max_mpx), staging)
+        already = _already_stored(session, store, project_id, checked, staging)
+        rows = _insert(session, project_id, [i for i in checked if i.name not in already])
         revealed = _reveal(store, project_id, staging, rows)
         try:
             session.commit()
@@ -35,7 +46,31 @@ def upload(session: Session, store: Store, project: Project,
             for key in revealed:
                 store.remove(key)
             raise
-    return rows
+    return Uploaded(rows, [already[name] for name in sorted(already)])
+
+
+def _already_stored(session: Session, store: Store, project_id: int, checked: list[NewImage],
+                    scratch: Path) -> dict[str, Image]:
+    """name -> stored image, for the uploaded files whose name and bytes are already there (a
+    row from before hashes were kept is hashed from its stored file). Same name, other bytes: left
+    to _insert's 409."""
+    rows = {row.name: row for row in queries.images(session, project_id)}
+    found = {}
+    for image in checked:
+        row = rows.get(image.name)
+        if row is None:
+            continue
+        if row.sha256 is None:
+            copy = scratch / "stored-image"
+            try:
+                store.fetch(image_key(project_id, row.name), copy)
+            except FileNotFoundError:
+                continue
+            row.sha256 = uploads.file_sha256(copy)
+            copy.unlink()
+        if row.sha256 == image.sha256:
+            found[image.name] = row
+    return found
 
 
 def delete(session: Session, store: Store, image: Image) -> None:
@@ -73,7 +108,7 @@ def _insert(session: Session, project_id: int, checked: list[NewImage]) -> list[
     if clashes:
         raise Conflict(f"the project already has images named {', '.join(clashes[:5])}")
     rows = [Image(project_id=project_id, name=i.name, width=i.width, height=i.height,
-                  seq=0, taken_at=i.taken_at) for i in checked]
+                  seq=0, taken_at=i.taken_at, sha256=i.sha256) for i in checked]
     session.add_all(rows)
     try:
         session.flush()

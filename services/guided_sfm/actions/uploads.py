@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import re
 import shutil
 import zipfile
@@ -178,6 +180,19 @@ def _unzip_images(raw: Path, shown: str, staging: Path, budget: Budget,
 def _claim(staging: Path, name: str) -> None:
     if (staging / name).exists():
         raise BadUpload(f"{name} appears twice in the upload")
+
+
+def file_sha256(path: Path) -> str:
+    """The hex SHA-256 of a file's bytes (what tells a batch sent again from a new file)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as source:
+        while chunk := source.read(CHUNK):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def with_hashes(images: list[NewImage], staging: Path) -> list[NewImage]:
+    return [dataclasses.replace(image, sha256=file_sha256(staging / image.name)) for image in images]
 
 
 def discard(path: Path) -> None:

@@ -6,17 +6,29 @@ import json
 import threading
 from collections import OrderedDict
 from contextlib import ExitStack
+from dataclasses import replace
 from typing import Any
 
 from sqlalchemy.orm import Session
 
 from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.edits import parse_edits
+from guided_sfm.core.topdown import decimate_points
 from guided_sfm.core.workspace import DATABASE, EDITS, META, PRUNING, SCENE, SPARSE, Workspace
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import Store
 
 READ = (DATABASE, SPARSE + "/", SCENE, META, EDITS, PRUNING)  # all a reader needs: not the vocab tree
+
+# The point layer's level of detail, chosen here: a scene keeps up to 20,000 points; above
+# LARGE_SCENE_CAMERAS cameras the editor's first draw gets half of them (grid-decimated), and a
+# client asks for more (up to all that are kept) with ?max_points=.
+FULL_POINTS, LARGE_SCENE_POINTS, LARGE_SCENE_CAMERAS = 20_000, 10_000, 300
+
+
+def point_budget(num_cameras: int) -> int:
+    """The scene API's default number of points for a scene of this many cameras."""
+    return LARGE_SCENE_POINTS if num_cameras > LARGE_SCENE_CAMERAS else FULL_POINTS
 
 
 def _workspace(stack: ExitStack, store: Store, version: Version) -> Workspace:
@@ -31,13 +43,14 @@ class _SceneCache:
     def __init__(self, size: int = 32) -> None:
         self.size, self.entries, self.lock = size, OrderedDict[str, bytes](), threading.Lock()
 
-    def get(self, session: Session, store: Store, version: Version) -> bytes:
-        key = f"{store!r}:{version.path}"
+    def get(self, session: Session, store: Store, version: Version,
+            max_points: int | None = None) -> bytes:
+        key = f"{store!r}:{version.path}|{max_points}"
         with self.lock:
             if key in self.entries:
                 self.entries.move_to_end(key)
                 return self.entries[key]
-        data = json.dumps(scene(session, store, version), separators=(",", ":")).encode()
+        data = json.dumps(scene(session, store, version, max_points), separators=(",", ":")).encode()
         with self.lock:
             self.entries[key] = data
             while len(self.entries) > self.size:
@@ -48,11 +61,19 @@ class _SceneCache:
 scene_json = _SceneCache().get
 
 
-def scene(session: Session, store: Store, version: Version) -> dict[str, Any]:
+def scene(session: Session, store: Store, version: Version,
+          max_points: int | None = None) -> dict[str, Any]:
+    """The scene with its point layer at max_points (None: the server's level of detail);
+    `points` adds `total` (points kept with the version), `max_points` and `cell` (the grid's
+    cell in frame units, 0 when nothing was dropped)."""
     with ExitStack() as stack:
         workspace = _workspace(stack, store, version)
         ids = IdMap.load(session, version.project_id, workspace)
-        data = workspace.scene().to_dict()
+        topdown = workspace.scene()
+    budget = point_budget(len(topdown.cameras)) if max_points is None else max_points
+    kept, cell = decimate_points(topdown.points_xy, budget)
+    data = replace(topdown, points_xy=kept).to_dict()
+    data["points"] |= {"total": len(topdown.points_xy), "max_points": budget, "cell": round(cell, 6)}
     data["cameras"] = ids.rows(data["cameras"])
     return data
 

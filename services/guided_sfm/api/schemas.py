@@ -151,6 +151,8 @@ class ImageOut(Out):
     width: int
     height: int
     seq: int
+    sha256: str | None = None  # of the file (null for images stored before it was kept)
+    already_uploaded: bool = False  # an upload sent again: this name with this content was there
 
 
 class ReconstructIn(In):

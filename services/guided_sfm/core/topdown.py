@@ -119,3 +119,29 @@ def scene_extent(scene: TopDownScene) -> float:
     if len(centers) < 2:
         return 1.0
     return float(np.max(np.linalg.norm(centers[:, None] - centers[None], axis=2)))
+
+
+def decimate_points(points_xy: np.ndarray, max_points: int) -> tuple[np.ndarray, float]:
+    """At most max_points of the 2D points and the grid cell (frame units; 0 when all are kept).
+
+    A square grid sized so that at most half the budget of cells is occupied; each occupied cell
+    keeps at least one point and otherwise its share of the budget: sparse corners stay visible
+    while dense walls keep their density (the editor draws the points as a density).
+    """
+    points_xy = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+    if len(points_xy) <= max_points:
+        return points_xy, 0.0
+    low, high = points_xy.min(axis=0), points_xy.max(axis=0)
+    cell = max(float(np.sqrt(np.prod(np.maximum(high - low, 1e-9)) / max_points)), 1e-9)
+    while True:
+        keys = np.floor((points_xy - low) / cell).astype(np.int64)
+        _, groups, counts = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_inverse=True,
+                                      return_counts=True)
+        if len(counts) <= max(1, max_points // 2):
+            break
+        cell *= 1.25
+    share = 1 + (counts - 1) * (max_points - len(counts)) // max(1, len(points_xy) - len(counts))
+    order = np.argsort(groups, kind="stable")  # points cell by cell, in their stored order
+    rank = np.arange(len(order)) - np.repeat(np.cumsum(counts) - counts, counts)
+    keep = np.sort(order[rank < share[groups[order]]])
+    return points_xy[keep], cell

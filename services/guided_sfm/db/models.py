@@ -125,6 +125,7 @@ class Image(Base):
     seq: Mapped[int] = mapped_column(Integer, default=0)
     taken_at: Mapped[str | None] = mapped_column(String(32))  # EXIF DateTimeOriginal, sortable text
     created_at: Mapped[datetime] = mapped_column(Timestamp(), default=utcnow)
+    sha256: Mapped[str | None] = mapped_column(String(64))  # of the file; null before 0006 and on import
 
 
 class Version(Base):

@@ -1,6 +1,7 @@
 """Hall layouts for matching at scale: identical bays along a long hall, walked as one outward-
-looking loop. `hall` (55 views) is small enough for a test; `hall-120` and `hall-300` are the
-benchmark's larger captures of the same design."""
+looking loop. `hall` (55 views) is small enough for a test; `hall-120`, `hall-300`,
+`hall-600` and `hall-1000` (595 and 995 views) are the benchmark's larger captures of the same
+design."""
 
 from __future__ import annotations
 
@@ -67,4 +68,6 @@ HALL_LAYOUTS: dict[str, Callable[[int], Layout]] = {
     "hall": hall,
     "hall-120": partial(hall, bays=5),
     "hall-300": partial(hall, bays=14),
+    "hall-600": partial(hall, bays=29),
+    "hall-1000": partial(hall, bays=49),
 }

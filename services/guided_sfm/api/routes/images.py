@@ -29,13 +29,18 @@ router = APIRouter(prefix="/projects/{pid}/images", tags=["images"])
 @router.post("", status_code=201, response_model=list[ImageOut])
 def upload_images(project: EditorProject, session: SessionDep, store: StoreDep, settings: SettingsDep,
                   files: Annotated[list[UploadFile], File(description="JPEG/PNG files or one .zip")],
-                  actor: ActorDep) -> list[Image]:
+                  actor: ActorDep) -> list[ImageOut]:
+    """201 with the images added and, marked `already_uploaded`, those sent again (same name and
+    bytes as a stored image): a batch whose answer was lost can be sent again as it was."""
     uploads = [(f.filename or "", f.file) for f in files]
-    rows = image_actions.upload(session, store, project, uploads, settings.max_upload_bytes,
-                                settings.max_image_mpx)
-    record(session, project.id, actor, "upload", {"kind": "project"},
-           {"count": len(rows), "image_ids": [row.id for row in rows]})
-    return rows
+    result = image_actions.upload(session, store, project, uploads, settings.max_upload_bytes,
+                                  settings.max_image_mpx)
+    if result.added:
+        record(session, project.id, actor, "upload", {"kind": "project"},
+               {"count": len(result.added), "image_ids": [row.id for row in result.added]})
+    return [ImageOut.model_validate(row) for row in result.added] + [
+        ImageOut.model_validate(row).model_copy(update={"already_uploaded": True})
+        for row in result.already]
 
 
 @router.get("", response_model=list[ImageOut])

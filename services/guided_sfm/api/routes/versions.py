@@ -45,14 +45,18 @@ def list_versions(project: ViewerProject, session: SessionDep) -> list[VersionOu
 
 
 @router.get("/{vid}/scene", response_model=dict[str, Any])
-def scene(version: ViewerVersion, session: SessionDep, store: StoreDep, request: Request) -> Response:
+def scene(version: ViewerVersion, session: SessionDep, store: StoreDep, request: Request,
+          max_points: Annotated[int | None, Query(ge=1, le=version_data.FULL_POINTS)] = None
+          ) -> Response:
     """The top-down scene: a version never changes, so it is cached, tagged (304 when the client
-    has it) and sent gzipped to clients that take it."""
-    tag = f'"scene-{version.id}-{PurePosixPath(version.path).name}"'
+    has it) and sent gzipped to clients that take it. Its point layer is decimated to the
+    server's level of detail unless `max_points` asks for another (see version_data)."""
+    level = "" if max_points is None else f"-p{max_points}"
+    tag = f'"scene-{version.id}-{PurePosixPath(version.path).name}{level}"'
     headers = {"ETag": tag, "Cache-Control": "private, max-age=0, must-revalidate", "Vary": "Accept-Encoding"}
     if tag in request.headers.get("if-none-match", ""):
         return Response(status_code=304, headers=headers)
-    data = version_data.scene_json(session, store, version)
+    data = version_data.scene_json(session, store, version, max_points)
     if accepts_gzip(request):
         return Response(_gzipped(data), media_type="application/json",
                         headers={**headers, "Content-Encoding": "gzip"})
@@ -67,8 +71,15 @@ def _gzipped(data: bytes) -> bytes:
 
 @router.get("/{vid}/pairs", response_model=list[PairOut])
 def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep, page: PageDep,
-          image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> list[dict]:
-    return page.of(version_data.pairs(session, store, version, image_id))
+          response: Response, image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None,
+          order: Literal["pair", "inliers"] = "pair") -> list[dict]:
+    """Verified pairs by image ids (v1), or most inliers first (`order=inliers`, what the matches
+    panel pages through); `X-Total-Count` is the number before `limit`/`offset`."""
+    rows = version_data.pairs(session, store, version, image_id)
+    if order == "inliers":
+        rows.sort(key=lambda row: -row["num_inliers"])  # stable: ties stay in pair order
+    response.headers["X-Total-Count"] = str(len(rows))
+    return page.of(rows)
 
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)
