@@ -21,7 +21,7 @@ import pycolmap
 from guided_sfm.core import colmap_db, colmap_model, match_graph, remap, retrieval, sfm, topdown
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
-from guided_sfm.core.rule import driver, evidence
+from guided_sfm.core.rule import driver, evidence, separates
 from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.sfm import RunContext
 from guided_sfm.core.types import DEFAULT_RULE, EditSet, PairKey, Progress, PruneResult, TopDownScene
@@ -222,8 +222,8 @@ class Workspace:
         rule, which needs none)."""
         if edits.rule != DEFAULT_RULE or not edits.cameras or not self.model_dir().is_dir():
             return None
-        touching = evidence.pairs_touching(pairs, {c.image_id for c in edits.cameras})
-        return evidence.gather(self.require(), self.model_dir(), touching)
+        needed = separates.partners_of_moved(pairs, {c.image_id for c in edits.cameras})
+        return evidence.gather(self.require(), self.model_dir(), needed)
 
     def prune(self, edits: EditSet, new: Workspace) -> PruneOutcome:
         """Write the new workspace: the pruned database, a copy of the base models, the edits
