@@ -10,7 +10,10 @@ Run: .venv/bin/python benchmarks/bench_remap.py [--layouts murals,office,twins,o
   cold map is the base version; the edit moves 3 cameras (their pairs are kept: nothing to
   prune), then the database is mapped cold and warm (from the base without those 3), interleaved.
 Per scene: median seconds of each, the ratio, the registered count and models of both, and the
-median rotation MAE (deg) of the moved cameras against the truth for both. The figures depend on the
+median rotation MAE (deg) of the moved cameras against the truth for both. With --prior, sample
+layouts are also mapped warm with the round's placements as position priors (SfmOptions.
+placement_prior), interleaved with the others, so "warm" (without) and "prior" (with) compare
+in the same run. The figures depend on the
 machine's load; the ratios compare runs made side by side.
 """
 
@@ -51,21 +54,23 @@ def rotation_mae(models: list, truth: dict, names: list[str]) -> float:
     return statistics.fmean(e.rotation_deg for e in errors.values()) if errors else float("nan")
 
 
-# A run returns (seconds of the mapping alone, models, MapReport); copies happen outside the clock.
-Run = Callable[[bool], tuple[float, list, remap.MapReport]]
+# A run of a mode (cold, warm or prior) returns (seconds of the mapping alone, models, MapReport);
+# copies happen outside the clock.
+Run = Callable[[str], tuple[float, list, remap.MapReport]]
 
 
-def interleaved(runs: int, run: Run, truth: dict, moved_names: list[str]) -> dict:
+def interleaved(runs: int, run: Run, truth: dict, moved_names: list[str],
+                modes: tuple[str, ...] = ("cold", "warm")) -> dict:
     """Per mode: median seconds and MAE, the last run's registration and models (cold, warm, ...).
 
     Cold maps are not deterministic on 2 threads (their MAE varies between runs), hence medians.
     """
-    seconds: dict[str, list[float]] = {"cold": [], "warm": []}
-    maes: dict[str, list[float]] = {"cold": [], "warm": []}
+    seconds: dict[str, list[float]] = {mode: [] for mode in modes}
+    maes: dict[str, list[float]] = {mode: [] for mode in modes}
     out = {}
     for _ in range(runs):
         for mode in seconds:
-            took, models, report = run(mode == "cold")
+            took, models, report = run(mode)
             seconds[mode].append(took)
             maes[mode].append(rotation_mae(models, truth, moved_names))
             out[mode] = {"registered": models[0].num_reg_images(), "models": len(models),
@@ -77,7 +82,7 @@ def interleaved(runs: int, run: Run, truth: dict, moved_names: list[str]) -> dic
     return out
 
 
-def layout_scene(layout: str, runs: int, root: Path) -> dict:
+def layout_scene(layout: str, runs: int, root: Path, prior: bool = False) -> dict:
     """The demo's first correction of a rendered layout, mapped again cold and warm."""
     sample.write_sample(root / "sample", layout, seed=0)
     ws0, ws1 = Workspace(root / "ws0"), Workspace(root / "ws1")
@@ -91,19 +96,21 @@ def layout_scene(layout: str, runs: int, root: Path) -> dict:
     names = ws1.image_ids()
     moved = {c.image_id for c in edits.cameras}
 
-    def run(cold: bool) -> tuple[float, list, remap.MapReport]:
+    def run(mode: str) -> tuple[float, list, remap.MapReport]:
         copy = Workspace(root / "run")
         shutil.rmtree(copy.root, ignore_errors=True)
         shutil.copytree(ws1.root, copy.root)
+        options = sfm.SfmOptions(placement_prior=mode == "prior")
         start = time.perf_counter()
-        report = copy.map_again(cold=cold)
+        report = copy.map_again(sfm.RunContext(options), cold=mode == "cold")
         took = time.perf_counter() - start
         return took, copy.load_models(), report
 
     truth_poses = {n: (c.rotation, c.center) for n, c in truth.cameras.items()}
     moved_names = [n for n, i in names.items() if i in moved]
+    modes = ("cold", "warm", "prior") if prior else ("cold", "warm")
     return {"scene": f"{layout} sample", "images": len(names), "moved": len(moved),
-            **interleaved(runs, run, truth_poses, moved_names)}
+            **interleaved(runs, run, truth_poses, moved_names, modes)}
 
 
 def synthetic_scene(size: int, runs: int, root: Path) -> dict:
@@ -124,11 +131,11 @@ def synthetic_scene(size: int, runs: int, root: Path) -> dict:
     ids = sorted(base[0].reg_image_ids())
     moved = {ids[len(ids) // 4], ids[len(ids) // 2], ids[3 * len(ids) // 4]}
 
-    def run(cold: bool) -> tuple[float, list, remap.MapReport]:
+    def run(mode: str) -> tuple[float, list, remap.MapReport]:
         shutil.rmtree(root / "run", ignore_errors=True)
         start = time.perf_counter()
         models, report = remap.map_warm_or_cold(database, root / "images", root / "run", base, moved,
-                                                cold=cold)
+                                                cold=mode == "cold")
         return time.perf_counter() - start, models, report
 
     moved_names = [base[0].image(i).name for i in moved]
@@ -150,6 +157,12 @@ def print_row(r: dict) -> None:
           f"{cold['median'] / warm['median']:5.1f}x {cold['registered']:>3}/{warm['registered']:<4} "
           f"{cold['models']:>5}/{warm['models']:<4} {cold['mae']:6.2f}/{warm['mae']:<6.2f}  "
           f"{warm['fallback'] or 'no'}", flush=True)
+    if "prior" in r:
+        prior = r["prior"]
+        print(f"{'  held to priors':<30} {prior['median']:7.1f} s (warm without: "
+              f"{warm['median']:.1f} s, {warm['median'] / prior['median']:.2f}x), registered "
+              f"{prior['registered']}, models {prior['models']}, MAE {prior['mae']:.2f} deg, "
+              f"fell back: {prior['fallback'] or 'no'}", flush=True)
 
 
 def print_checks(rows: list[dict]) -> None:
@@ -169,13 +182,15 @@ def main() -> None:
     parser.add_argument("--layouts", default="murals,office,twins,orbit")
     parser.add_argument("--sizes", default="150,300")
     parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--prior", action="store_true",
+                        help="also map the layouts warm held to the placements' priors")
     args = parser.parse_args()
     set_colmap_verbosity(False)
     rows = []
     print_header(args.runs)
     for layout in filter(None, args.layouts.split(",")):
         with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
-            rows.append(layout_scene(layout, args.runs, Path(tmp)))
+            rows.append(layout_scene(layout, args.runs, Path(tmp), args.prior))
         print_row(rows[-1])
     for size in (int(s) for s in filter(None, args.sizes.split(","))):
         with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:

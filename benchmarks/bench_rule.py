@@ -27,6 +27,7 @@ from guided_sfm.core.rule.match_placement import placement_test
 from guided_sfm.core.rule.motion import motions_of
 from guided_sfm.core.rule.relative_pose import relative_pose_test
 from guided_sfm.core.rule.relative_rotation import rotation_test
+from guided_sfm.core.rule.separates import partners_of_moved
 from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.types import CameraEdit, EditSet
 from guided_sfm.core.workspace import Workspace
@@ -53,8 +54,10 @@ def walk_poses(count: int, rng: np.random.Generator) -> dict:
     return poses
 
 
-def synthetic_capture(count: int, neighbours: int, seed: int = 0):
-    """(scene, edits, pairs, evidence): each camera paired with its nearest along the walk."""
+def synthetic_capture(count: int, neighbours: int, seed: int = 0, moved_share: float = 1.0):
+    """(scene, edits, pairs, evidence): each camera paired with its nearest along the walk; every
+    camera moved, or every other stretch of the walk where moved_share < 1 (then the pairs between
+    unmoved cameras are candidates for the `separates` reason too)."""
     rng = np.random.default_rng(seed)
     capture = Capture(walk_poses(count, rng))
     for i in range(1, count + 1):
@@ -69,7 +72,10 @@ def synthetic_capture(count: int, neighbours: int, seed: int = 0):
                 capture.match(i, j, seen)
     scene, evidence = capture.scene(), capture.evidence()
     edits = []
-    for camera in scene.cameras:
+    stretch = max(1, round(count * moved_share / 4))  # four moved stretches
+    for index, camera in enumerate(scene.cameras):
+        if moved_share < 1.0 and index % (count // 4) >= stretch:
+            continue
         turn = 90.0 if rng.random() < TURNED_SHARE else rng.choice([-10.0, 10.0])
         angle = rng.uniform(0, 2 * np.pi)
         edits.append(CameraEdit(camera.image_id, camera.x + 0.3 * np.cos(angle),
@@ -88,10 +94,11 @@ def median_time(function, runs: int, *args):
     return (statistics.median(walls), statistics.median(cpus)), result
 
 
-def bench_synthetic(count: int, neighbours: int, runs: int) -> None:
-    scene, edits, pairs, evidence = synthetic_capture(count, neighbours, seed=0)
+def bench_synthetic(count: int, neighbours: int, runs: int, moved_share: float = 1.0) -> None:
+    scene, edits, pairs, evidence = synthetic_capture(count, neighbours, 0, moved_share)
     matches = sum(len(m) for m in evidence.matches.values())
-    print(f"{count} cameras, {len(pairs)} pairs, {matches} inlier matches, all cameras moved")
+    print(f"{count} cameras, {len(pairs)} pairs, {matches} inlier matches, "
+          f"{len(edits.cameras)} cameras moved")
     placements = {e.image_id: e for e in edits.cameras}
     tolerances = Tolerances()
     frusta = placed_frusta(scene, placements)
@@ -121,7 +128,7 @@ def bench_gather(root: Path, runs: int) -> None:
     pairs = workspace.verified_pairs()
     ids = [c.image_id for c in workspace.scene().cameras if c.registered]
     (seconds, cpu), evidence = median_time(
-        lambda: ev.gather(workspace.require(), workspace.model_dir(), ev.pairs_touching(pairs, ids)),
+        lambda: ev.gather(workspace.require(), workspace.model_dir(), partners_of_moved(pairs, set(ids))),
         runs)
     print(f"gather evidence from {root}: {len(evidence.rows)} images, {len(evidence.matches)} pairs, "
           f"{len(evidence.rays)} keypoints: {seconds:.3f} s wall, {cpu:.3f} s cpu")
@@ -144,10 +151,12 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3, help="runs per timing (median reported)")
     parser.add_argument("--cameras", type=int, default=300)
     parser.add_argument("--neighbours", type=int, default=30)
+    parser.add_argument("--moved-share", type=float, default=1.0,
+                        help="below 1: that share of the cameras moved, in four stretches")
     parser.add_argument("--workspace", type=Path, default=None)
     parser.add_argument("--moved", type=int, default=50, help="cameras moved in --workspace's preview")
     args = parser.parse_args()
-    bench_synthetic(args.cameras, args.neighbours, args.runs)
+    bench_synthetic(args.cameras, args.neighbours, args.runs, args.moved_share)
     if args.workspace:
         bench_gather(args.workspace, args.runs)
         bench_preview(args.workspace, args.moved, args.runs)

@@ -72,6 +72,8 @@ def _options(args: argparse.Namespace):
     from guided_sfm.core.sfm import SfmOptions
 
     extra = {"num_threads": args.threads} if getattr(args, "threads", None) else {}
+    if getattr(args, "placement_prior", None) is not None:
+        extra["placement_prior"] = args.placement_prior
     return SfmOptions(matcher=getattr(args, "matcher", "auto"),
                       mapper=getattr(args, "mapper", "incremental"),
                       features=getattr(args, "features", "standard"), **extra)
@@ -194,7 +196,10 @@ SFM_ARGS = [("--matcher", {"choices": ["auto", "exhaustive", "sequential", "retr
             ("--threads", {"type": int, "default": None}),
             ("--features", {"choices": ["standard", "colmap"], "default": "standard",
                             "help": "colmap: COLMAP's own SIFT octaves and threshold, about "
-                                    "2x slower (see docs/engine.md)"})]
+                                    "2x slower (see docs/engine.md)"}),
+            ("--placement-prior", {"action": argparse.BooleanOptionalAction, "default": None,
+                                   "help": "hold the re-map to the round's placements "
+                                           "(position priors; docs/pruning-rule.md)"})]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -211,7 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
          [("workspace",), ("edits",), ("new_workspace",),
           ("--dry-run", {"action": "store_true"}), ("--json", {"action": "store_true"})])
     _add(sub, "map", cmd_map, "map a workspace's database again",
-         [("workspace",), ("--cold", {"action": "store_true"}), *SFM_ARGS[1:3]])
+         [("workspace",), ("--cold", {"action": "store_true"}), *SFM_ARGS[1:3], SFM_ARGS[4]])
     _add(sub, "evaluate", cmd_evaluate, "the paper's metrics against ground truth",
          [("workspace",), ("--truth", {"required": True}), ("--reference-from", {"default": None}),
           ("--json", {"action": "store_true"})])
@@ -220,6 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
           ("--rounds", {"type": int, "default": 1}), ("--rule", {"default": DEFAULT_RULE,
                                                                "choices": list(RULES)}),
           ("--out", {"default": None}), ("--cold", {"action": "store_true"}), SFM_ARGS[0],
+          SFM_ARGS[4],
           ("--tolerance", {"action": "append", "metavar": "NAME=VALUE",
                            "help": "override one of the default rule's tolerances"}),
           ("--reuse", {"action": "store_true",

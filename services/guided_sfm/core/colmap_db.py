@@ -13,6 +13,7 @@ import pycolmap
 
 from guided_sfm.core.errors import InvalidInput, MissingWorkspace
 from guided_sfm.core.geometry import horizontal_fov_deg
+from guided_sfm.core.pose_prior import PositionPrior
 from guided_sfm.core.types import PairKey, pair_key
 
 # Mapping reads keypoints, matches and two-view geometries, never descriptors, so a pruned
@@ -169,6 +170,43 @@ def _copy_tables(conn: sqlite3.Connection) -> None:
         if kind == "table" and name not in SKIPPED_TABLES:
             conn.execute(f'INSERT INTO main."{name}" SELECT * FROM src."{name}"')
     conn.commit()
+
+
+def write_position_priors(path: Path, priors: Iterable[PositionPrior]) -> int:
+    """Replace the database's pose priors with these positions (Cartesian, in the model's frame,
+    no gravity); returns how many were written."""
+    with read_only(path) as conn:
+        camera_of = dict(conn.execute("SELECT image_id, camera_id FROM images"))
+    count = 0
+    with pycolmap.Database.open(path) as database:
+        database.clear_pose_priors()
+        for prior in priors:
+            sensor = pycolmap.sensor_t(type=pycolmap.SensorType.CAMERA, id=camera_of[prior.image_id])
+            database.write_pose_prior(pycolmap.PosePrior(
+                corr_data_id=pycolmap.data_t(sensor_id=sensor, id=prior.image_id),
+                position=np.asarray(prior.position, dtype=float),
+                position_covariance=np.asarray(prior.covariance, dtype=float),
+                coordinate_system=pycolmap.PosePriorCoordinateSystem.CARTESIAN))
+            count += 1
+    finalize(path)
+    return count
+
+
+def count_pose_priors(path: Path) -> int:
+    """How many pose priors the database holds (0 for a database without their table)."""
+    with read_only(path) as conn:
+        if not conn.execute("SELECT 1 FROM sqlite_master WHERE name = 'pose_priors'").fetchone():
+            return 0
+        return int(conn.execute("SELECT COUNT(*) FROM pose_priors").fetchone()[0])
+
+
+def read_position_priors(path: Path) -> list[PositionPrior]:
+    """The database's pose priors with a position, sorted by image id."""
+    with pycolmap.Database.open(path) as database:
+        priors = [PositionPrior(int(p.corr_data_id.id), np.array(p.position),
+                                np.array(p.position_covariance))
+                  for p in database.read_all_pose_priors() if p.has_position()]
+    return sorted(priors, key=lambda prior: prior.image_id)
 
 
 def fov_by_image(path: Path) -> dict[int, float]:

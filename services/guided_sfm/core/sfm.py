@@ -46,6 +46,8 @@ MATCH_CHUNKS = 10
 # while its largest model holds less than this share of the images.
 COLD_START_ATTEMPTS, COLD_START_SHARE = 3, 0.5
 WARM_GLOBAL_BA_RATIO = 2.0  # growth between global BAs when mapping from a previous model
+# See SfmOptions.placement_prior and docs/pruning-rule.md ("The placement as a pose prior").
+PLACEMENT_PRIOR_DEFAULT = False
 # SIFT features kept per image, by area. Exhaustive matching grows with the square of the
 # count; a density (not COLMAP's flat 8,192) keeps small images cheap and large ones matched:
 # 1,024 for the 640x480 samples, 2,621 for the 1024x768 Lund photographs (docs/engine.md).
@@ -74,6 +76,9 @@ class SfmOptions:
     min_registration_inliers: int = 15
     num_threads: int = 2
     seed: int = 0
+    # Hold an incremental re-map to the position priors a correction round wrote into the
+    # database (core/pose_prior.py: the user's placement, the unmoved cameras where they were).
+    placement_prior: bool = PLACEMENT_PRIOR_DEFAULT
 
     def __post_init__(self) -> None:
         if self.matcher not in MATCHERS:
@@ -299,8 +304,12 @@ def _blocks_of_images(pairs: Sequence[tuple[int, int]]) -> list[list[tuple[int, 
 
 
 def _incremental_options(options: SfmOptions, image_dir: Path, attempt: int, fix_existing: bool,
-                         warm: bool) -> pycolmap.IncrementalPipelineOptions:
+                         warm: bool, priors: bool = False) -> pycolmap.IncrementalPipelineOptions:
     mapping = pycolmap.IncrementalPipelineOptions()
+    # COLMAP's global bundle adjustment then aligns the map to the priors (a robust similarity)
+    # and adds each registered camera's position, weighted by its covariance; with none in the
+    # database the mapper would map nothing, hence only where some were written.
+    mapping.use_prior_position = priors
     mapping.num_threads = options.num_threads
     mapping.random_seed = options.seed + attempt
     mapping.image_path = image_dir
@@ -350,9 +359,10 @@ def _incremental_map(database: Path, image_dir: Path, out: str, run: RunContext,
         run.progress("map", min(0.99, registered[0] / num_images))
 
     models: dict = {}
+    priors = run.options.placement_prior and colmap_db.count_pose_priors(database) >= 3
     for attempt in range(1 if input_model else COLD_START_ATTEMPTS):
         mapping = _incremental_options(run.options, image_dir, attempt, fix_existing,
-                                       warm=input_model is not None)
+                                       warm=input_model is not None, priors=priors)
         with _cancellable():
             found = pycolmap.incremental_mapping(
                 database, image_dir, out, mapping, input_path=input_model or "",

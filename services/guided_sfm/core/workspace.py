@@ -18,11 +18,21 @@ from pathlib import Path
 
 import pycolmap
 
-from guided_sfm.core import colmap_db, colmap_model, match_graph, remap, retrieval, sfm, topdown
+from guided_sfm.core import (
+    colmap_db,
+    colmap_model,
+    match_graph,
+    pose_prior,
+    remap,
+    retrieval,
+    sfm,
+    topdown,
+)
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
-from guided_sfm.core.rule import driver, evidence
+from guided_sfm.core.rule import driver, evidence, separates
 from guided_sfm.core.rule.evidence import Evidence
+from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.sfm import RunContext
 from guided_sfm.core.types import DEFAULT_RULE, EditSet, PairKey, Progress, PruneResult, TopDownScene
 
@@ -222,8 +232,8 @@ class Workspace:
         rule, which needs none)."""
         if edits.rule != DEFAULT_RULE or not edits.cameras or not self.model_dir().is_dir():
             return None
-        touching = evidence.pairs_touching(pairs, {c.image_id for c in edits.cameras})
-        return evidence.gather(self.require(), self.model_dir(), touching)
+        needed = separates.partners_of_moved(pairs, {c.image_id for c in edits.cameras})
+        return evidence.gather(self.require(), self.model_dir(), needed)
 
     def prune(self, edits: EditSet, new: Workspace) -> PruneOutcome:
         """Write the new workspace: the pruned database, a copy of the base models, the edits
@@ -233,12 +243,22 @@ class Workspace:
             raise MissingWorkspace("the new workspace must differ from the base workspace")
         new.root.mkdir(parents=True, exist_ok=True)
         colmap_db.copy_without_pairs(self.require(), new.database, outcome.deleted)
+        colmap_db.write_position_priors(new.database, self.placement_priors(edits))
         self._copy_models_to(new)
         new.write_meta({**self.read_meta(), "parent": str(self.root.resolve())})
         new.edits_file.write_text(json.dumps(edits_to_json(edits), indent=2))
         record = pruning_record(outcome, new.image_names())
         new.pruning_file.write_text(json.dumps(record, indent=2))
         return outcome
+
+    def placement_priors(self, edits: EditSet) -> list[pose_prior.PositionPrior]:
+        """The position priors an edit set gives the re-map, in this workspace's model frame
+        (core/pose_prior.py); none when it moves no camera (a round that only prunes)."""
+        if not edits.cameras or not self.model_dir().is_dir():
+            return []
+        share = Tolerances(**edits.tolerances).position_share
+        placements = {placement.image_id: placement for placement in edits.cameras}
+        return pose_prior.placement_priors(self.scene(), placements, share)
 
     def _copy_models_to(self, new: Workspace) -> None:
         for source, target in ((self.sparse, new.sparse), (self.scene_file, new.scene_file)):

@@ -53,7 +53,17 @@ def twins(seed: int) -> Layout:
 def orbit(seed: int) -> Layout:
     """A 1.2 m square pillar with one mural on all four sides, circled by 36 inward-facing views
     in a plainly painted 9 x 9 m room."""
-    rng = np.random.default_rng([seed, 12])
+    return _orbit(np.random.default_rng([seed, 12]), (1.2, 1.2, 2.4), 2.6, 36)
+
+
+def orbit_wide(seed: int) -> Layout:
+    """orbit around another object at another radius: a 0.8 x 1.6 m pillar (its two broad sides
+    alike, its two narrow sides alike) circled by 40 views at 3.3 m."""
+    return _orbit(np.random.default_rng([seed, 13]), (1.6, 0.8, 2.2), 3.3, 40)
+
+
+def _orbit(rng: np.random.Generator, size: tuple[float, float, float], radius: float,
+           count: int) -> Layout:
     scene = Scene()
     length = width = 9.0
     height = 3.0
@@ -67,12 +77,12 @@ def orbit(seed: int) -> Layout:
     scene.quads.append(horizontal_quad(0, 0, length, width, height,
                                        scene.add_texture(plain(rng, 200, 200))))
     scene.lights.extend(np.array([x, y, height - 0.05]) for x in (3.0, 6.0) for y in (3.0, 6.0))
-    size = (1.2, 1.2, 2.4)
     art = scene.add_texture(tx.mural(rng, int(size[0] * WALL_TPM), int(size[2] * WALL_TPM)))
     middle = (length / 2, width / 2)
     scene.quads.extend(box_quads(middle, size, 0.0, art, art, flat=True))
-    path = arc(middle, 2.6, -90.0, 260.0, 36)
+    path = arc(middle, radius, -90.0, -90.0 + 360.0 * (count - 1) / count, count)
     return Layout(scene, VGA, poses_along(path, rng, pitch=-4.0, sway=0.0, eye=1.5))
 
 
-OBJECT_LAYOUTS: dict[str, Callable[[int], Layout]] = {"twins": twins, "orbit": orbit}
+OBJECT_LAYOUTS: dict[str, Callable[[int], Layout]] = {"twins": twins, "orbit": orbit,
+                                                       "orbit_wide": orbit_wide}

@@ -23,6 +23,7 @@ from guided_sfm.core.rule.match_placement import placement_test
 from guided_sfm.core.rule.motion import motions_of
 from guided_sfm.core.rule.relative_pose import relative_pose_test
 from guided_sfm.core.rule.relative_rotation import rotation_test
+from guided_sfm.core.rule.separates import SEPARATES, separating_pairs
 from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.types import (
     DEFAULT_RULE,
@@ -134,11 +135,35 @@ def prune_pairs(scene: TopDownScene, edits: EditSet, pairs: Mapping[PairKey, int
                                                 evidence))
     for test, removed in removals.items():
         _add_reason(reasons, zip(*tested[removed].T.tolist(), strict=True), test)
+    if edits.rule == DEFAULT_RULE and evidence is not None and evidence.rows:
+        separated = RuleInput(separating_pairs(pairs, tested, _any(removals, len(tested)),
+                                               set(placements), manual),
+                              frusta, scene, placements, tolerances, evidence)
+        for key, tests in _separates_removals(separated).items():
+            reasons[key] = (SEPARATES, *tests)
     kept = kept_to_connect(pairs, reasons, manual)  # (the paper's rule has no placement test)
     for key in kept:
         del reasons[key]
     _add_reason(reasons, dict.fromkeys(manual), MANUAL)
     return PruneResult(deleted=sorted(reasons), reasons=reasons, kept_to_connect=kept)
+
+
+def _any(removals: Removals, count: int) -> np.ndarray:
+    return np.logical_or.reduce([*removals.values(), np.zeros(count, dtype=bool)])
+
+
+def _separates_removals(separated: RuleInput) -> dict[PairKey, tuple[str, ...]]:
+    """The pairs between unmoved cameras (rule.separates) that the default rule's evidence tests
+    remove at their model poses, each with those tests; the frustum test has no say here."""
+    if len(separated.tested) == 0:
+        return {}
+    removals = _default_rule(separated)
+    removals.pop(FRUSTUM, None)
+    found: dict[PairKey, tuple[str, ...]] = {}
+    for test, removed in removals.items():
+        for a, b in separated.tested[removed].tolist():
+            found[(a, b)] = found.get((a, b), ()) + (test,)
+    return found
 
 
 def kept_to_connect(pairs: Mapping[PairKey, int], reasons: Mapping[PairKey, tuple[str, ...]],
@@ -147,17 +172,17 @@ def kept_to_connect(pairs: Mapping[PairKey, int], reasons: Mapping[PairKey, tupl
     off the rest of the match graph.
 
     Kept: the pairs that test alone removed (not the relative-pose test, not the rotation test's
-    epipolar stage, not the user by hand) and that join two parts the removals separated. Its angle
-    measures the user's placement error as much as the pair; with no link left, a group of cameras
-    cannot be registered at all, let alone where the user put it. All such pairs are kept: one
-    alone registers a group poorly.
+    epipolar stage, not the user by hand; on its own or for `separates`) and that join two parts
+    the removals separated. Its angle measures the user's placement error as much as the pair;
+    with no link left, a group of cameras cannot be registered at all, let alone where the user
+    put it. All such pairs are kept: one alone registers a group poorly.
     """
     manual_keys = set(manual)
     after = {image_id: index
              for index, group in enumerate(components(pairs, set(reasons) | manual_keys))
              for image_id in group}
     return sorted(key for key, tests in reasons.items()
-                  if tests == (PLACEMENT,) and key not in manual_keys
+                  if tests in ((PLACEMENT,), (SEPARATES, PLACEMENT)) and key not in manual_keys
                   and after[key[0]] != after[key[1]])
 
 
