@@ -243,9 +243,10 @@ def build_parser() -> argparse.ArgumentParser:
                            "help": "override one of the default rule's tolerances"}),
           ("--reuse", {"action": "store_true",
                        "help": "start from --out's existing sample and round0 if present"}),
-          ("--user", {"default": "wrong", "choices": ["wrong", "all"],
+          ("--user", {"default": "wrong", "choices": ["wrong", "all", "proposals"],
                       "help": "wrong: place the wrong cameras near their truth; all: re-lay every "
-                              "camera of an orbit on a circle in capture order"}),
+                              "camera of an orbit on a circle in capture order; proposals: accept "
+                              "every run `suspects` proposes, nothing else"}),
           ("--json", {"action": "store_true"})])
     _register_service(sub)
     return parser
