@@ -16,6 +16,7 @@ from guided_sfm.core.triage.signals import BREAK_STEPS, turn_deg
 
 # A piece whose end lands within these of the continuation of its placed neighbour is trusted.
 TRUST_TURN_DEG = 45.0
+CONTINUE_FROM = 4  # steps of the placed neighbour a continuation follows
 
 
 @dataclass
@@ -34,11 +35,21 @@ def anchor_of(pieces: list[Piece]) -> int | None:
 
 
 def _ahead(poses: np.ndarray, step: float) -> np.ndarray:
-    """The pose after the last of poses at the motion between its last two (a single pose:
-    one typical step straight ahead)."""
-    if len(poses) >= 2:
-        return poses2d.continue_forward(poses[-2], poses[-1])
-    return poses2d.compose(poses[-1], np.array([step, 0.0, 0.0]))
+    """The pose after the last of poses, walking on at the mean step length, heading and turn
+    of the last few (hand-held yaw sways from shot to shot; the mean does not); a single pose:
+    one typical step straight ahead."""
+    if len(poses) < 2:
+        return poses2d.compose(poses[-1], np.array([step, 0.0, 0.0]))
+    recent = np.asarray(poses)[-(CONTINUE_FROM + 1):]
+    k = len(recent) - 1
+    moves = np.diff(recent[:, :2], axis=0)
+    yaws = np.unwrap(recent[:, 2])
+    rate = float(np.mean(np.diff(yaws)))  # turn per step
+    headings = np.unwrap(np.arctan2(moves[:, 1], moves[:, 0]))
+    heading = float(np.mean(headings)) + rate * (k + 1) / 2
+    length = float(np.mean(np.linalg.norm(moves, axis=1)))
+    yaw = float(np.mean(yaws)) + rate * (k / 2 + 1)
+    return np.array([*(recent[-1, :2] + length * np.array([np.cos(heading), np.sin(heading)])), yaw])
 
 
 def _reverse(poses: np.ndarray) -> np.ndarray:
