@@ -62,7 +62,7 @@ def test_a_placed_sub_model_joins_the_largest_where_it_was_placed(scene_and_mode
     merged, joined = join_placed(models, placements, scene.frame)
     assert len(merged) == 1 and joined == {i for _, i, _, _ in OTHER}
     poses = model_poses(merged[0])
-    for name, image_id, center, _ in OTHER:
+    for _name, image_id, center, _ in OTHER:
         np.testing.assert_allclose(poses[image_id].center, center, atol=0.05)
     assert merged[0].num_points3D() > models[0].num_points3D()
 
