@@ -102,7 +102,8 @@ def test_an_orbit_keeps_the_stretch_across_its_seam_and_turns_the_folded_run_bac
     result = triage(capture(ring, placed))
     assert raised(result) == set(range(10, 19))
     (run,) = result.runs
-    errors = [np.hypot(e.x - ring[i][0], e.y - ring[i][1]) for e, i in zip(run.proposal, range(10, 19), strict=True)]
+    errors = [np.hypot(e.x - ring[i][0], e.y - ring[i][1])
+              for e, i in zip(run.proposal, range(10, 19), strict=True)]
     assert max(errors) < 0.3  # fitted between its two trusted neighbours
 
 
