@@ -203,7 +203,8 @@ class Workspace:
         staging = self.root / (SPARSE + ".new")
         try:
             models, report = remap.map_warm_or_cold(database, image_dir or self.image_dir(), staging,
-                                                    base_models, touched, run, cold)
+                                                    base_models, touched, run, cold,
+                                                    keep_fixed=(self.root / JOINED).is_file())
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
             raise
@@ -258,6 +259,7 @@ class Workspace:
         rewriting sparse/ and recording the joined images in joined.json."""
         models = self.load_models()
         merged, joined = join_groups.join_placed(models, edits.cameras, frame)
+        (self.root / JOINED).unlink(missing_ok=True)  # a workspace pruned into again
         if joined:
             shutil.rmtree(self.sparse)
             sfm.write_models(merged, self.sparse)
