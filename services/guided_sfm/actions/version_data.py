@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import replace
 from typing import Any
@@ -14,6 +15,7 @@ from sqlalchemy.orm import Session
 from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.topdown import decimate_points
+from guided_sfm.core.triage.of_workspace import triage_workspace
 from guided_sfm.core.workspace import DATABASE, EDITS, META, PRUNING, SCENE, SPARSE, Workspace
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import Store
@@ -36,21 +38,22 @@ def _workspace(stack: ExitStack, store: Store, version: Version) -> Workspace:
     return Workspace(stack.enter_context(store.reading(version.path, only=READ)))
 
 
-class _SceneCache:
-    """Serialized scenes of recent versions: a version never changes, and its JSON (thousands of
-    points) costs far more to build than to send. Keyed by the version's unique artifact key."""
+class _VersionCache:
+    """Answers computed from recent versions: a version never changes, and its scene (thousands
+    of points) or its triage costs far more to build than to send. Keyed by the version's unique
+    artifact key and the build's arguments."""
 
-    def __init__(self, size: int = 32) -> None:
-        self.size, self.entries, self.lock = size, OrderedDict[str, bytes](), threading.Lock()
+    def __init__(self, build: Callable[..., Any], size: int = 32) -> None:
+        self.build, self.size = build, size
+        self.entries, self.lock = OrderedDict[str, Any](), threading.Lock()
 
-    def get(self, session: Session, store: Store, version: Version,
-            max_points: int | None = None) -> bytes:
-        key = f"{store!r}:{version.path}|{max_points}"
+    def get(self, session: Session, store: Store, version: Version, *args: Any) -> Any:
+        key = f"{store!r}:{version.path}|{args}"
         with self.lock:
             if key in self.entries:
                 self.entries.move_to_end(key)
                 return self.entries[key]
-        data = json.dumps(scene(session, store, version, max_points), separators=(",", ":")).encode()
+        data = self.build(session, store, version, *args)
         with self.lock:
             self.entries[key] = data
             while len(self.entries) > self.size:
@@ -58,7 +61,11 @@ class _SceneCache:
         return data
 
 
-scene_json = _SceneCache().get
+def _scene_bytes(session: Session, store: Store, version: Version, max_points: int | None = None) -> bytes:
+    return json.dumps(scene(session, store, version, max_points), separators=(",", ":")).encode()
+
+
+scene_json = _VersionCache(_scene_bytes).get
 
 
 def scene(session: Session, store: Store, version: Version,
@@ -76,6 +83,25 @@ def scene(session: Session, store: Store, version: Version,
     data["points"] |= {"total": len(topdown.points_xy), "max_points": budget, "cell": round(cell, 6)}
     data["cameras"] = ids.rows(data["cameras"])
     return data
+
+
+def _suspects(session: Session, store: Store, version: Version) -> dict[str, Any]:
+    """Triage in REST ids; images without an SQL row are left out (see ids.py)."""
+    with ExitStack() as stack:
+        workspace = _workspace(stack, store, version)
+        ids = IdMap.load(session, version.project_id, workspace)
+        data = triage_workspace(workspace).to_dict()
+    runs = []
+    for run in data["runs"]:
+        image_ids = [ids.to_sql[i] for i in run["image_ids"] if i in ids.to_sql]
+        if not image_ids:
+            continue
+        proposal = run["proposal"] and {"cameras": ids.rows(run["proposal"]["cameras"])}
+        runs.append({**run, "image_ids": image_ids, "proposal": proposal})
+    return {"suspects": ids.rows(data["suspects"]), "runs": runs}
+
+
+suspects = _VersionCache(_suspects).get
 
 
 def pairs(session: Session, store: Store, version: Version, image_id: int | None) -> list[dict]:

@@ -21,6 +21,7 @@ import pycolmap
 from guided_sfm.core import (
     colmap_db,
     colmap_model,
+    join_groups,
     match_graph,
     pose_prior,
     remap,
@@ -37,7 +38,7 @@ from guided_sfm.core.sfm import RunContext
 from guided_sfm.core.types import DEFAULT_RULE, EditSet, PairKey, Progress, PruneResult, TopDownScene
 
 DATABASE, SPARSE, SCENE, META = "database.db", "sparse", "scene.json", "workspace.json"
-EDITS, PRUNING = "edits.json", "pruning.json"
+EDITS, PRUNING, JOINED = "edits.json", "pruning.json", "joined.json"
 # Share of a reconstruction spent in each step, so one job reports one rising fraction.
 STAGE_SPANS = {"extract": (0.0, 0.2), "match": (0.2, 0.75), "map": (0.75, 1.0)}
 
@@ -142,7 +143,10 @@ class Workspace:
         if not self.edits_file.is_file():
             return set()
         edits = json.loads(self.edits_file.read_text())
-        return {c["image_id"] for c in edits.get("cameras", [])} | {
+        # cameras of a sub-model joined by their placement keep the pose it gave them
+        joined_file = self.root / JOINED
+        joined = set(json.loads(joined_file.read_text())) if joined_file.is_file() else set()
+        return ({c["image_id"] for c in edits.get("cameras", [])} - joined) | {
             i for pair in edits.get("delete_pairs", []) for i in pair}
 
     def stats(self) -> dict[str, int]:
@@ -201,7 +205,8 @@ class Workspace:
         staging = self.root / (SPARSE + ".new")
         try:
             models, report = remap.map_warm_or_cold(database, image_dir or self.image_dir(), staging,
-                                                    base_models, touched, run, cold)
+                                                    base_models, touched, run, cold,
+                                                    keep_fixed=(self.root / JOINED).is_file())
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
             raise
@@ -245,6 +250,7 @@ class Workspace:
         colmap_db.copy_without_pairs(self.require(), new.database, outcome.deleted)
         colmap_db.write_position_priors(new.database, self.placement_priors(edits))
         self._copy_models_to(new)
+        new.join_placed_groups(edits, self.scene().frame)
         new.write_meta({**self.read_meta(), "parent": str(self.root.resolve())})
         new.edits_file.write_text(json.dumps(edits_to_json(edits), indent=2))
         record = pruning_record(outcome, new.image_names())
@@ -259,6 +265,18 @@ class Workspace:
         share = Tolerances(**edits.tolerances).position_share
         placements = {placement.image_id: placement for placement in edits.cameras}
         return pose_prior.placement_priors(self.scene(), placements, share)
+
+    def join_placed_groups(self, edits: EditSet, frame) -> set[int]:
+        """Merge the sub-models the edit set places into the largest (core/join_groups.py),
+        rewriting sparse/ and recording the joined images in joined.json."""
+        models = self.load_models()
+        merged, joined = join_groups.join_placed(models, edits.cameras, frame)
+        (self.root / JOINED).unlink(missing_ok=True)  # a workspace pruned into again
+        if joined:
+            shutil.rmtree(self.sparse)
+            sfm.write_models(merged, self.sparse)
+            (self.root / JOINED).write_text(json.dumps(sorted(joined)))
+        return joined
 
     def _copy_models_to(self, new: Workspace) -> None:
         for source, target in ((self.sparse, new.sparse), (self.scene_file, new.scene_file)):

@@ -1,4 +1,4 @@
-"""Versions: list, scene, pairs, restore, export, compare."""
+"""Versions: list, scene, pairs, suspects, restore, export, compare."""
 
 import functools
 import gzip
@@ -25,7 +25,7 @@ from guided_sfm.api.deps import (
     ViewerProject,
     ViewerVersion,
 )
-from guided_sfm.api.schemas import CompareOut, PairOut, ProjectOut, VersionOut
+from guided_sfm.api.schemas import CompareOut, PairOut, ProjectOut, SuspectsOut, VersionOut
 from guided_sfm.db import queries
 from guided_sfm.db.models import MAX_ID, Version
 
@@ -80,6 +80,13 @@ def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep, page: Pa
         rows.sort(key=lambda row: -row["num_inliers"])  # stable: ties stay in pair order
     response.headers["X-Total-Count"] = str(len(rows))
     return page.of(rows)
+
+
+@router.get("/{vid}/suspects", response_model=SuspectsOut)
+def suspects(version: ViewerVersion, session: SessionDep, store: StoreDep) -> dict:
+    """Cameras likely misplaced (score in [0, 1], raised from 0.5), with reasons, and runs that
+    move as one with a proposal of where each belongs (design.md v1.1, Triage)."""
+    return version_data.suspects(session, store, version)
 
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)
