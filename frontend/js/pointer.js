@@ -7,13 +7,28 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
   let gesture = null; // {kind: "pan"|"drag", x, y, moved, start}
   let drags = 0;
 
+  // A drawing tool (store.tool, e.g. the path tool) takes the pointer while it is active.
+  const toTool = (name, e) => {
+    if (!store.tool) return false;
+    store.tool[name]?.(view.toWorld(e.clientX, e.clientY), e, view.worldPerPixel());
+    return true;
+  };
+
   canvas.addEventListener("pointerdown", (e) => {
     if (e.button !== 0) return;
     canvas.focus();
+    if (toTool("down", e)) {
+      canvas.setPointerCapture(e.pointerId);
+      return;
+    }
     const hit = view.hitTest(e.clientX, e.clientY);
     const toggle = e.ctrlKey || e.metaKey;
     if (hit !== null) {
-      if (toggle || e.shiftKey || !store.selection.has(hit)) selection.click(hit, { shift: e.shiftKey, toggle });
+      const group = !toggle && !e.shiftKey && selection.groupOf(hit).length > 0;
+      if (group && !store.selection.has(hit)) selection.selectGroup(hit); // a split-off model as one piece
+      else if (!group && (toggle || e.shiftKey || !store.selection.has(hit))) {
+        selection.click(hit, { shift: e.shiftKey, toggle });
+      }
       const poses = store.editable && !toggle ? editor.selectedPoses() : [];
       gesture = { kind: poses.length ? "drag" : "none", start: view.toWorld(e.clientX, e.clientY),
         poses, key: `drag${(drags += 1)}` };
@@ -25,6 +40,7 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
   }, { signal });
 
   canvas.addEventListener("pointermove", (e) => {
+    if (toTool("move", e)) return undefined;
     if (!gesture) return hover(e);
     const here = view.toWorld(e.clientX, e.clientY);
     if (gesture.kind === "pan") {
@@ -41,7 +57,8 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
     if (gesture?.kind === "pan" && !gesture.moved && gesture.clear) selection.clear();
     gesture = null;
   };
-  canvas.addEventListener("pointerup", end, { signal });
+  canvas.addEventListener("pointerup", (e) => { if (!toTool("up", e)) end(); }, { signal });
+  canvas.addEventListener("dblclick", (e) => toTool("dblclick", e), { signal });
   canvas.addEventListener("pointercancel", end, { signal });
   canvas.addEventListener("pointerleave", () => setHover(null), { signal });
 

@@ -3,9 +3,10 @@
 // the page forwards the store's "lines", "arrows", "display" and "view" events to it.
 import { DensityLayer } from "./density.js";
 import { median, viewExtent } from "./geometry.js";
-import { drawArrows, drawFrusta, drawGlyphs, drawLabels, drawScaleBar, drawSegments } from "./glyphs.js";
+import { drawArrows, drawFrusta, drawGhostCameras, drawGlyphs, drawGroupOutlines, drawLabels, drawScaleBar,
+  drawSegments, drawSketch } from "./glyphs.js";
 const COLOURS = ["points", "camera", "moved", "unregistered", "flagged", "selected", "hovered",
-  "match", "cut", "estimate", "arrow", "ghost", "frustum", "order"];
+  "match", "cut", "estimate", "arrow", "ghost", "frustum", "order", "group", "proposal", "sketch"];
 
 export class SceneView {
   constructor(canvas) {
@@ -17,6 +18,7 @@ export class SceneView {
     this.points = new Float32Array(0);
     this.poseOf = modelPose;
     this.base = new Map(); // image id -> model pose, for ghosts of moved cameras
+    this.byId = new Map();
     this.selected = new Set();
     this.moved = new Set();
     this.flagged = new Set();
@@ -26,6 +28,8 @@ export class SceneView {
     this.metresPerUnit = null; // set from a known distance: the scale bar then speaks metres
     this.lines = []; // [{a, b, kind: "match"|"cut"|"estimate", weight}]
     this.arrows = []; // [{from: [x, y], to: [x, y]}]
+    this.ghosts = []; // [{id, x, y, yaw_deg, hot}]: proposed poses
+    this.sketch = null; // the path being drawn
     this.colours = readColours(canvas);
     this.frame = 0;
     this.generation = 0; // bump to force the static layer to redraw (e.g. new colours)
@@ -44,6 +48,7 @@ export class SceneView {
     this.cameras = cameras;
     this.points = points;
     this.base = new Map(cameras.filter((c) => c.x !== null).map((c) => [c.id, c]));
+    this.byId = new Map(cameras.map((c) => [c.id, c]));
   }
 
   // Match lines; the estimate's and the server's cut lines are the red ones.
@@ -51,6 +56,19 @@ export class SceneView {
     this.lines = lines;
     this.canvas.dataset.lines = String(lines.length);
     this.canvas.dataset.redLines = String(lines.filter((l) => l.kind !== "match").length);
+    this.requestDraw();
+  }
+
+  // Proposed poses (ghost cameras), each joined by a dashed line to where its camera is now.
+  setGhosts(ghosts) {
+    this.ghosts = ghosts;
+    this.canvas.dataset.ghosts = String(ghosts.length);
+    this.requestDraw();
+  }
+
+  setSketch(sketch) {
+    this.sketch = sketch;
+    this.canvas.dataset.sketch = sketch?.kind ?? "";
     this.requestDraw();
   }
 
@@ -105,6 +123,11 @@ export class SceneView {
     const { cx, cy, scale } = this.view;
     return [cx + ((clientX - rect.left) * dpr - this.canvas.width / 2) / scale,
       cy - ((clientY - rect.top) * dpr - this.canvas.height / 2) / scale];
+  }
+
+  // World units per CSS pixel at the current zoom.
+  worldPerPixel() {
+    return this.canvas.width / this.canvas.getBoundingClientRect().width / this.view.scale;
   }
 
   panBy(dxWorld, dyWorld) {
@@ -163,12 +186,15 @@ export class SceneView {
       drawFrusta(ctx, t, dynamic, { fill: colours.selectedFaint, stroke: colours.selected, px });
     }
     this.drawGhosts(t, px);
+    this.drawProposals(t, px);
+    this.drawGroups(t, posed, px);
     this.drawLines(t, px);
     drawArrows(ctx, t, this.arrows, { colour: colours.arrow, px });
     this.drawCameras(ctx, t, dynamic, px);
     this.drawHoverRing(t, posed, px);
     this.drawOrderLabels(t, ordered, px);
     if (posed.length || this.points.length) this.drawScale(px);
+    if (this.sketch) drawSketch(ctx, t, this.sketch, { colour: colours.sketch, px });
     this.overlay?.(ctx, t, px); // e.g. comment pins, drawn by their panel
     this.frame += 1;
     Object.assign(canvas.dataset, { frame: String(this.frame), hovered: String(this.hovered ?? ""),
@@ -271,6 +297,30 @@ export class SceneView {
     drawSegments(this.ctx, t, segments, { colour: this.colours.ghost, width: px, dash: [3 * px, 3 * px] });
   }
 
+  drawProposals(t, px) {
+    if (!this.ghosts.length) return;
+    const segments = [];
+    for (const g of this.ghosts) {
+      const cam = this.byId.get(g.id);
+      const now = cam && this.poseOf(cam);
+      if (now) segments.push([now.x, now.y, g.x, g.y]);
+    }
+    drawSegments(this.ctx, t, segments, { colour: this.colours.proposal, width: px, dash: [2 * px, 3 * px] });
+    drawGhostCameras(this.ctx, t, this.ghosts, { colour: this.colours.proposal, px });
+  }
+
+  // Split-off models: their cameras at their group poses (or where the draft moved them).
+  drawGroups(t, posed, px) {
+    const groups = new Map(); // model index -> poses
+    for (const [cam, pose] of posed) {
+      if (!cam.group) continue;
+      if (!groups.has(cam.model)) groups.set(cam.model, []);
+      groups.get(cam.model).push(pose);
+    }
+    drawGroupOutlines(this.ctx, t, groups, { colour: this.colours.group, px });
+    this.canvas.dataset.groups = String(groups.size);
+  }
+
   drawLines(t, px) {
     if (!this.lines.length) return;
     const byId = new Map();
@@ -301,6 +351,7 @@ export class SceneView {
     if (this.selected.has(cam.id)) return "selected";
     if (cam.id === this.hovered) return "hovered";
     if (this.flagged.has(cam.id)) return "flagged";
+    if (cam.group) return "group";
     if (!cam.registered) return "unregistered";
     return this.moved.has(cam.id) ? "moved" : "camera";
   }
@@ -318,7 +369,7 @@ export class SceneView {
 }
 
 const modelPose = (cam) => (cam.x === null ? null : cam);
-const CATEGORIES = ["camera", "unregistered", "moved", "flagged", "selected", "hovered"];
+const CATEGORIES = ["camera", "unregistered", "group", "moved", "flagged", "selected", "hovered"];
 const LINE_ORDER = ["match", "estimate", "cut"];
 
 function sameKey(a, b) {
