@@ -368,7 +368,8 @@ export class SceneView {
   }
 }
 
-const modelPose = (cam) => (cam.x === null ? null : cam);
+// Before an editor is attached: the model's pose, else a split-off model's group pose.
+const modelPose = (cam) => (cam.x !== null ? cam : cam.group && { ...cam, ...cam.group });
 const CATEGORIES = ["camera", "unregistered", "group", "moved", "flagged", "selected", "hovered"];
 const LINE_ORDER = ["match", "estimate", "cut"];
 
