@@ -104,6 +104,23 @@ def cmd_scene(args: argparse.Namespace) -> None:
         print_json(scene.to_dict())
 
 
+def cmd_suspects(args: argparse.Namespace) -> None:
+    from guided_sfm.core.triage.of_workspace import triage_workspace
+    from guided_sfm.core.triage.suspects import RAISE_SCORE
+    from guided_sfm.core.workspace import Workspace
+
+    workspace = Workspace(args.workspace)
+    document = triage_workspace(workspace).to_dict(workspace.image_names())
+    if not args.json:  # a readable summary first; the last line is the document either way
+        raised = [s for s in document["suspects"] if s["score"] >= RAISE_SCORE]
+        print_table([("suspects", f"{len(raised)} at score >= {RAISE_SCORE}"),
+                     *((s["name"], f"{s['score']:.2f}  {s['reasons'][0] if s['reasons'] else ''}")
+                       for s in raised),
+                     ("runs", len(document["runs"])),
+                     *((r["names"][0], r["reason"]) for r in document["runs"])])
+    print_json(document)
+
+
 def read_json(path: str) -> object:
     try:
         return json.loads(Path(path).read_text())
@@ -207,6 +224,8 @@ def build_parser() -> argparse.ArgumentParser:
          [("images_dir",), ("workspace",), *SFM_ARGS])
     _add(sub, "scene", cmd_scene, "the top-down scene of a workspace",
          [("workspace",), ("--json", {"action": "store_true"}), ("--png", {"default": None})])
+    _add(sub, "suspects", cmd_suspects, "cameras likely misplaced, with runs and proposals",
+         [("workspace",), ("--json", {"action": "store_true"})])
     _add(sub, "prune", cmd_prune, "delete the pairs an edit set rules out into a new workspace",
          [("workspace",), ("edits",), ("new_workspace",),
           ("--dry-run", {"action": "store_true"}), ("--json", {"action": "store_true"})])
@@ -224,9 +243,10 @@ def build_parser() -> argparse.ArgumentParser:
                            "help": "override one of the default rule's tolerances"}),
           ("--reuse", {"action": "store_true",
                        "help": "start from --out's existing sample and round0 if present"}),
-          ("--user", {"default": "wrong", "choices": ["wrong", "all"],
+          ("--user", {"default": "wrong", "choices": ["wrong", "all", "proposals"],
                       "help": "wrong: place the wrong cameras near their truth; all: re-lay every "
-                              "camera of an orbit on a circle in capture order"}),
+                              "camera of an orbit on a circle in capture order; proposals: accept "
+                              "every run `suspects` proposes, nothing else"}),
           ("--json", {"action": "store_true"})])
     _register_service(sub)
     return parser

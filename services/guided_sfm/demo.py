@@ -12,6 +12,7 @@ from guided_sfm.core import checked_round, evaluation, metrics, simulated_user
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.sfm import RunContext, SfmOptions
 from guided_sfm.core.stage_clock import StageClock
+from guided_sfm.core.triage.of_workspace import triage_workspace
 from guided_sfm.core.truth import load_truth
 from guided_sfm.core.types import DEFAULT_RULE, Progress, no_progress
 from guided_sfm.core.workspace import Workspace
@@ -76,7 +77,7 @@ def run_demo(layout: str = sample.DEFAULT_LAYOUT, seed: int = 0, rounds: int = 1
 def _round(loop: _Loop, number: int, base: Workspace, truth, targets: list[str],
            status: evaluation.CameraStatus, reference: list[str] | None) -> tuple[dict, Workspace]:
     """One round: the simulated user places, the rule prunes, the checked re-map maps again."""
-    placements = _place(loop.user, base.scene(), truth, targets, status, loop.seed + number)
+    placements, actions = _place(loop.user, base, truth, targets, status, loop.seed + number)
     edits = parse_edits({"cameras": [vars(c) for c in placements], "rule": loop.rule,
                          "tolerances": dict(loop.tolerances)}, base.image_ids())
     new = Workspace(loop.out_dir / f"round{number}")
@@ -86,7 +87,7 @@ def _round(loop: _Loop, number: int, base: Workspace, truth, targets: list[str],
     report = evaluation.evaluate_workspace(new, loop.truth_file, reference_from=base,
                                            before_reference=reference)
     return {"round": number, **report, **_round_facts(edits, outcome, mapped),
-            "checked_pairs": len(checked)}, new
+            "checked_pairs": len(checked), "actions": actions}, new
 
 
 def _round_facts(edits, outcome, mapped) -> dict:
@@ -98,17 +99,25 @@ def _round_facts(edits, outcome, mapped) -> dict:
 
 # The simulated users: "wrong" places each wrong or unregistered camera near its true pose;
 # "all" is a capture-shape user who re-lays every camera of an orbit on one circle in capture
-# order (simulated_user.place_on_circle), the right ones included.
-USERS = ("wrong", "all")
+# order (simulated_user.place_on_circle), the right ones included; "proposals" accepts every
+# run triage proposes (core/triage) and does nothing else: it never looks at the truth.
+USERS = ("wrong", "all", "proposals")
 
 
-def _place(user: str, scene, truth, targets: list[str], status: evaluation.CameraStatus,
-           seed: int) -> list:
+def _place(user: str, base: Workspace, truth, targets: list[str],
+           status: evaluation.CameraStatus, seed: int) -> tuple[list, dict[str, int]]:
+    """(placements, the user's actions: drags, key presses and accepts)."""
+    scene = base.scene()
+    if user == "proposals":
+        runs = [r for r in triage_workspace(base).runs if r.proposal]
+        return [c for r in runs for c in r.proposal], simulated_user.accepts(len(runs))
     if user == "all":
         everyone = [c.name for c in scene.cameras if c.name in truth.cameras]
-        return simulated_user.place_on_circle(scene, truth, everyone, status.truth_from_model,
-                                              seed)
-    return simulated_user.place_cameras(scene, truth, targets, status.truth_from_model, seed)
+        placed = simulated_user.place_on_circle(scene, truth, everyone, status.truth_from_model,
+                                                seed)
+    else:
+        placed = simulated_user.place_cameras(scene, truth, targets, status.truth_from_model, seed)
+    return placed, simulated_user.hand_actions(scene, placed)
 
 
 def _summary(reports: list[dict], final: evaluation.CameraStatus) -> dict:
@@ -124,7 +133,18 @@ def _summary(reports: list[dict], final: evaluation.CameraStatus) -> dict:
             "final_wrong": last["num_wrong"], "final_models": last["num_models"],
             "final_rotation_mae_deg": evaluation.target_errors(final, sorted(wrong0))[
                 "rotation_mae_deg"],
+            **actions_per_fixed(reports, len(wrong0 - still)),
             "pruning_pooled": pooled_pruning(reports)}
+
+
+def actions_per_fixed(reports: list[dict], fixed: int) -> dict:
+    """The simulated user's actions over every round, and per camera the loop fixed."""
+    totals = {"drags": 0, "key_presses": 0, "accepts": 0}
+    for report in reports[1:]:
+        for key in totals:
+            totals[key] += report.get("actions", {}).get(key, 0)
+    total = sum(totals.values())
+    return {**totals, "actions_per_fixed": round(total / fixed, 2) if fixed else None}
 
 
 def pooled_pruning(reports: list[dict]) -> dict | None:

@@ -11,6 +11,7 @@ from sqlalchemy.orm import Session
 
 from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.edits import parse_edits
+from guided_sfm.core.triage.of_workspace import triage_workspace
 from guided_sfm.core.workspace import Workspace
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import ArtifactStore
@@ -20,20 +21,22 @@ def _workspace(store: ArtifactStore, version: Version) -> Workspace:
     return Workspace(store.version_dir(version.path))
 
 
-class _SceneCache:
-    """Serialized scenes of recent versions: a version never changes, and its JSON (thousands of
-    points) costs far more to build than to send. Keyed by the version's unique artifact path."""
+class _VersionCache:
+    """Answers computed from recent versions: a version never changes, and its scene (thousands
+    of points) or its triage costs far more to build than to send. Keyed by the version's unique
+    artifact path."""
 
-    def __init__(self, size: int = 32) -> None:
-        self.size, self.entries, self.lock = size, OrderedDict[str, bytes](), threading.Lock()
+    def __init__(self, build, size: int = 32) -> None:
+        self.build, self.size = build, size
+        self.entries, self.lock = OrderedDict[str, Any](), threading.Lock()
 
-    def get(self, session: Session, store: ArtifactStore, version: Version) -> bytes:
+    def get(self, session: Session, store: ArtifactStore, version: Version) -> Any:
         key = str(store.version_dir(version.path))
         with self.lock:
             if key in self.entries:
                 self.entries.move_to_end(key)
                 return self.entries[key]
-        data = json.dumps(scene(session, store, version), separators=(",", ":")).encode()
+        data = self.build(session, store, version)
         with self.lock:
             self.entries[key] = data
             while len(self.entries) > self.size:
@@ -41,7 +44,11 @@ class _SceneCache:
         return data
 
 
-scene_json = _SceneCache().get
+def _scene_bytes(session: Session, store: ArtifactStore, version: Version) -> bytes:
+    return json.dumps(scene(session, store, version), separators=(",", ":")).encode()
+
+
+scene_json = _VersionCache(_scene_bytes).get
 
 
 def scene(session: Session, store: ArtifactStore, version: Version) -> dict[str, Any]:
@@ -50,6 +57,24 @@ def scene(session: Session, store: ArtifactStore, version: Version) -> dict[str,
     data = workspace.scene().to_dict()
     data["cameras"] = ids.rows(data["cameras"])
     return data
+
+
+def _suspects(session: Session, store: ArtifactStore, version: Version) -> dict[str, Any]:
+    """Triage in REST ids; images without an SQL row are left out (see ids.py)."""
+    workspace = _workspace(store, version)
+    ids = IdMap.load(session, version.project_id, workspace)
+    data = triage_workspace(workspace).to_dict()
+    runs = []
+    for run in data["runs"]:
+        image_ids = [ids.to_sql[i] for i in run["image_ids"] if i in ids.to_sql]
+        if not image_ids:
+            continue
+        proposal = run["proposal"] and {"cameras": ids.rows(run["proposal"]["cameras"])}
+        runs.append({**run, "image_ids": image_ids, "proposal": proposal})
+    return {"suspects": ids.rows(data["suspects"]), "runs": runs}
+
+
+suspects = _VersionCache(_suspects).get
 
 
 def pairs(session: Session, store: ArtifactStore, version: Version, image_id: int | None) -> list[dict]:

@@ -290,6 +290,35 @@ class CompareOut(Out):
     cameras: list[CompareCameraOut]
 
 
+# Triage (design.md, contract additions v1.1)
+class SuspectOut(Out):
+    image_id: int
+    score: float
+    reasons: list[str]
+
+
+class ProposalCameraOut(Out):
+    image_id: int
+    x: float
+    y: float
+    yaw_deg: float
+
+
+class ProposalOut(Out):
+    cameras: list[ProposalCameraOut]
+
+
+class RunOut(Out):
+    image_ids: list[int]
+    reason: str
+    proposal: ProposalOut | None
+
+
+class SuspectsOut(Out):
+    suspects: list[SuspectOut]
+    runs: list[RunOut]
+
+
 # Team review (design.md, contract additions v1.1)
 class ActivityOut(Out):
     id: int

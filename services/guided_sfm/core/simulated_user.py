@@ -79,3 +79,30 @@ def place_on_circle(scene: TopDownScene, truth: Truth, names: list[str],
 
 def _unit(angle: float) -> np.ndarray:
     return np.array([np.cos(angle), np.sin(angle)])
+
+
+# The editor's rotation keys (frontend/js/editor.js): q/r turn by 2 deg, 10 deg with shift.
+KEY_TURN_DEG, SHIFT_KEY_TURN_DEG = 2.0, 10.0
+
+
+def key_presses_to_turn(degrees: float) -> int:
+    """Rotation key presses to turn a camera by degrees: big (shift) steps, then small ones."""
+    turn = abs((degrees + 180.0) % 360.0 - 180.0)
+    big = int(turn // SHIFT_KEY_TURN_DEG)
+    return big + int(round((turn - big * SHIFT_KEY_TURN_DEG) / KEY_TURN_DEG))
+
+
+def hand_actions(scene: TopDownScene, placed: list[CameraEdit]) -> dict[str, int]:
+    """What a user does by hand to make these placements: one drag per camera and the rotation
+    keys from the yaw it is shown at (its model yaw; a camera in no model starts at 0 deg)."""
+    keys = 0
+    for edit in placed:
+        shown = scene.camera(edit.image_id)
+        start = shown.yaw_deg if shown is not None and shown.yaw_deg is not None else 0.0
+        keys += key_presses_to_turn(edit.yaw_deg - start)
+    return {"drags": len(placed), "key_presses": keys, "accepts": 0}
+
+
+def accepts(runs: int) -> dict[str, int]:
+    """A user who accepts proposed runs: one click per run, nothing dragged or turned."""
+    return {"drags": 0, "key_presses": 0, "accepts": runs}

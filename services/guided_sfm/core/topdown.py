@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import geometry, model_files
+from guided_sfm.core import geometry, group_pose, model_files
 from guided_sfm.core.colmap_model import ModelPose, model_poses
 from guided_sfm.core.errors import EmptyModel
 from guided_sfm.core.ground_plane import ground_frame
@@ -106,10 +107,32 @@ def build_scene(reconstructions: list[pycolmap.Reconstruction], largest_dir: Pat
                 fovs.get(image_id), ranges.get(image_id, scene_range))
         for seq, (image_id, name) in enumerate(ordered)
     ]
+    cameras = _with_group_poses(cameras, reconstructions, frame)
     points_xy = _subsample(frame.to_2d(points[1]), max_points, seed)
     models = [{"index": i, "num_images": int(r.num_reg_images())}
               for i, r in enumerate(reconstructions)]
     return TopDownScene(frame, cameras, points_xy, models)
+
+
+def _with_group_poses(cameras: list[SceneCamera], reconstructions: list[pycolmap.Reconstruction],
+                      frame: GroundFrame) -> list[SceneCamera]:
+    """The cameras, those of the other models with their group_pose (design.md v1.1)."""
+    if len(reconstructions) < 2:
+        return cameras
+    order = [c.image_id for c in cameras]
+    placed = [c for c in cameras if c.registered]
+    largest_xy = np.array([(c.x, c.y) for c in placed]).reshape(-1, 2)
+    spacing = group_pose.spacing(np.array([c.center for c in placed]).reshape(-1, 3))
+    poses: dict[int, dict[str, float]] = {}
+    for index, model in enumerate(reconstructions[1:], start=1):
+        own = {i: p for i, p in model_poses(model).items()
+               if next((c.model for c in cameras if c.image_id == i), None) == index}
+        # each group is set down beside the largest model and the groups placed before it
+        placed_xy = np.vstack([largest_xy, [(p["x"], p["y"]) for p in poses.values()]]) \
+            if poses else largest_xy
+        poses |= group_pose.group_poses(own, order, frame, placed_xy, spacing)
+    return [dataclasses.replace(c, group_pose=poses[c.image_id]) if c.image_id in poses else c
+            for c in cameras]
 
 
 def scene_extent(scene: TopDownScene) -> float:

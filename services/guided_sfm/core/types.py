@@ -67,6 +67,8 @@ class SceneCamera:
     range: float | None
     center: tuple[float, float, float] | None
     qvec: tuple[float, float, float, float] | None  # world-to-camera (w, x, y, z)
+    # outside the largest model: {x, y, yaw_deg} in its own model placed beside the largest
+    group_pose: dict[str, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         data = dict(self.__dict__)

@@ -1,4 +1,4 @@
-"""Versions: list, scene, pairs, restore, export, compare."""
+"""Versions: list, scene, pairs, suspects, restore, export, compare."""
 
 import functools
 import gzip
@@ -25,7 +25,7 @@ from guided_sfm.api.deps import (
     ViewerProject,
     ViewerVersion,
 )
-from guided_sfm.api.schemas import CompareOut, PairOut, ProjectOut, VersionOut
+from guided_sfm.api.schemas import CompareOut, PairOut, ProjectOut, SuspectsOut, VersionOut
 from guided_sfm.db import queries
 from guided_sfm.db.models import MAX_ID, Version
 
@@ -69,6 +69,13 @@ def _gzipped(data: bytes) -> bytes:
 def pairs(version: ViewerVersion, session: SessionDep, store: StoreDep, page: PageDep,
           image_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> list[dict]:
     return page.of(version_data.pairs(session, store, version, image_id))
+
+
+@router.get("/{vid}/suspects", response_model=SuspectsOut)
+def suspects(version: ViewerVersion, session: SessionDep, store: StoreDep) -> dict:
+    """Cameras likely misplaced (score in [0, 1], raised from 0.5), with reasons, and runs that
+    move as one with a proposal of where each belongs (design.md v1.1, Triage)."""
+    return version_data.suspects(session, store, version)
 
 
 @router.post("/{vid}/restore", status_code=201, response_model=VersionOut)

@@ -1,0 +1,118 @@
+"""What triage reads from a workspace: the cameras in capture order, the verified pairs with
+their inlier counts, how many 3D points each pair shares in the largest model, and the points
+each camera should have matched but did not (the missing-correspondence cue)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pycolmap
+
+from guided_sfm.core import model_files
+from guided_sfm.core.colmap_model import ModelPose, model_poses
+from guided_sfm.core.types import PairKey, TopDownScene
+
+# Points a camera "should see": in front of it, inside its image with this margin (share of the
+# image size), nearer than this many times its typical depth (farther ones are easily occluded).
+IMAGE_MARGIN_SHARE, MAX_DEPTH_RATIO = 0.05, 1.5
+
+
+@dataclass(frozen=True)
+class MissingCount:
+    """Points observed by cameras placed near this one (others than its capture neighbours)
+    that project inside its view, and how many of them it observes itself."""
+
+    expected: int
+    matched: int
+
+
+@dataclass(frozen=True)
+class TriageInput:
+    """Everything triage judges, in the scene's 2D frame; cameras in capture order."""
+
+    scene: TopDownScene
+    pairs: dict[PairKey, int]
+    shared_points: dict[PairKey, int] = field(default_factory=dict)
+    missing: dict[int, MissingCount] = field(default_factory=dict)
+
+
+def shared_point_counts(observed: dict[int, np.ndarray], pairs: Iterable[PairKey]) -> dict[PairKey, int]:
+    """Per pair of registered images: how many 3D points of the model both observe."""
+    sets = {i: set(ids.tolist()) for i, ids in observed.items()}
+    return {p: len(sets[p[0]] & sets[p[1]]) for p in pairs if p[0] in sets and p[1] in sets}
+
+
+def observed_points(model_dir: Path, poses: dict[int, ModelPose]) -> dict[int, np.ndarray]:
+    """Per registered image: the ids of the 3D points it observes (unique)."""
+    observations = model_files.read_observations(model_dir, poses)
+    return {i: np.unique(ids[ids != model_files.NO_POINT]) for i, (_, ids) in observations.items()}
+
+
+def _in_view(pose: ModelPose, camera: pycolmap.Camera, xyz: np.ndarray, depth: float) -> np.ndarray:
+    """Mask of the points that project inside the camera's image, in front, nearer than depth."""
+    cam = xyz @ pose.rotation.T + pose.translation
+    front = (cam[:, 2] > 1e-6) & (cam[:, 2] < depth)
+    pixels = np.full((len(xyz), 2), -1e9)
+    if front.any():
+        pixels[front] = camera.img_from_cam(cam[front])
+    margin_x, margin_y = IMAGE_MARGIN_SHARE * camera.width, IMAGE_MARGIN_SHARE * camera.height
+    inside = ((pixels[:, 0] > margin_x) & (pixels[:, 0] < camera.width - margin_x)
+              & (pixels[:, 1] > margin_y) & (pixels[:, 1] < camera.height - margin_y))
+    return front & inside
+
+
+def typical_step(scene: TopDownScene) -> float:
+    """Median 2D distance between capture-order neighbours that are both in the largest model."""
+    placed = [c for c in scene.cameras if c.registered]
+    xy = np.array([(c.x, c.y) for c in placed]).reshape(-1, 2)
+    steps = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    return float(np.median(steps)) if len(steps) else 1.0
+
+
+def _near_others(scene: TopDownScene, image_id: int, radius: float, window: int) -> list[int]:
+    """Registered cameras placed within radius of this one, more than window apart in capture order."""
+    me = scene.camera(image_id)
+    return [c.image_id for c in scene.cameras
+            if c.registered and abs(c.seq - me.seq) > window
+            and np.hypot(c.x - me.x, c.y - me.y) <= radius]
+
+
+def missing_counts(model: pycolmap.Reconstruction, model_dir: Path, scene: TopDownScene,
+                   radius_steps: float = 3.0, window: int = 3) -> dict[int, MissingCount]:
+    """The missing-correspondence cue per registered camera: of the 3D points seen by cameras
+    from elsewhere in the capture placed within radius_steps typical steps of it, those inside
+    its view and depth, how many it observes itself."""
+    poses = model_poses(model)
+    observed = observed_points(model_dir, poses)
+    ids, xyz = model_files.read_points(model_dir)
+    radius = radius_steps * typical_step(scene)
+    out = {}
+    for camera in scene.cameras:
+        if not camera.registered or camera.image_id not in poses:
+            continue
+        others = _near_others(scene, camera.image_id, radius, window)
+        candidates = np.setdiff1d(np.unique(np.concatenate(
+            [observed[o] for o in others if o in observed] or [np.empty(0, np.int64)])), [])
+        if not len(candidates):
+            out[camera.image_id] = MissingCount(0, 0)
+            continue
+        points = model_files.points_of(candidates, ids, xyz)
+        seen = _in_view(poses[camera.image_id], model.cameras[model.image(camera.image_id).camera_id],
+                        points, MAX_DEPTH_RATIO * (camera.range or 1.0))
+        expected = candidates[seen]
+        matched = np.intersect1d(expected, observed[camera.image_id])
+        out[camera.image_id] = MissingCount(len(expected), len(matched))
+    return out
+
+
+def gather(scene: TopDownScene, pairs: dict[PairKey, int], model: pycolmap.Reconstruction | None,
+           model_dir: Path | None) -> TriageInput:
+    """TriageInput of a workspace's scene, verified pairs and largest model (None: no model)."""
+    if model is None or model_dir is None:
+        return TriageInput(scene, pairs)
+    observed = observed_points(model_dir, model_poses(model))
+    return TriageInput(scene, pairs, shared_point_counts(observed, pairs),
+                       missing_counts(model, model_dir, scene))

@@ -1,0 +1,124 @@
+"""The signals triage reads, each on plain values: capture-order continuity (steps and turns
+between capture neighbours against the capture's typical step), the match graph (pairs whose 3D
+overlap in the model is small for their inlier count) and missing correspondences."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from guided_sfm.core.triage.evidence import MissingCount
+from guided_sfm.core.types import PairKey, SceneCamera, pair_key
+
+# A capture-order step this many typical steps long breaks the capture's continuity; a turn this
+# sharp does when the step is also unusually long (hand-held walks sway by 20 deg a step).
+BREAK_STEPS, TURN_BREAK_DEG, TURN_BREAK_STEPS = 3.0, 60.0, 2.0
+# A pair is in conflict with the model when it has this many inliers and the model gives both
+# images fewer than this share of them as common 3D points (true matches the model cannot hold).
+CONFLICT_MIN_INLIERS, CONFLICT_SHARE = 30, 0.15
+# The missing-correspondence cue counts only with this many points expected in view.
+MISSING_MIN_EXPECTED = 30
+
+
+@dataclass(frozen=True)
+class Step:
+    """From one registered camera to the next in capture order (both in the largest model)."""
+
+    before: SceneCamera
+    after: SceneCamera
+    length_steps: float  # in typical steps
+    turn_deg: float
+    inliers: int  # of their verified pair, 0 if none
+    shared_points: int
+
+    @property
+    def conflict(self) -> bool:
+        return is_conflict(self.inliers, self.shared_points)
+
+    @property
+    def breaks(self) -> bool:
+        """True when the two are not placed like neighbours of one continuous capture."""
+        long_jump = self.length_steps >= BREAK_STEPS
+        sharp_turn = self.turn_deg >= TURN_BREAK_DEG and self.length_steps >= TURN_BREAK_STEPS
+        return long_jump or sharp_turn or (self.conflict and self.length_steps >= TURN_BREAK_STEPS)
+
+
+def is_conflict(inliers: int, shared_points: int) -> bool:
+    """Many verified matches, but the model shares next to none of them as 3D points."""
+    return inliers >= CONFLICT_MIN_INLIERS and shared_points < CONFLICT_SHARE * inliers
+
+
+def typical_step_of(cameras: list[SceneCamera]) -> float:
+    """Median 2D distance between consecutive registered cameras (1 if there are none)."""
+    xy = np.array([(c.x, c.y) for c in cameras if c.registered]).reshape(-1, 2)
+    steps = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    steps = steps[steps > 0]
+    return float(np.median(steps)) if len(steps) else 1.0
+
+
+def turn_deg(yaw_a: float, yaw_b: float) -> float:
+    """Unsigned difference of two yaws (deg) in [0, 180]."""
+    return float(abs((yaw_b - yaw_a + 180.0) % 360.0 - 180.0))
+
+
+def steps_between(cameras: list[SceneCamera], pairs: dict[PairKey, int],
+                  shared_points: dict[PairKey, int]) -> list[Step]:
+    """Every step between capture neighbours that are both registered, in capture order."""
+    placed = [c for c in cameras if c.registered]
+    step = typical_step_of(placed)
+    out = []
+    for a, b in zip(placed[:-1], placed[1:], strict=True):
+        key = pair_key(a.image_id, b.image_id)
+        out.append(Step(a, b, float(np.hypot(b.x - a.x, b.y - a.y)) / step,
+                        turn_deg(a.yaw_deg, b.yaw_deg), pairs.get(key, 0),
+                        shared_points.get(key, 0)))
+    return out
+
+
+def conflict_pairs(image_id: int, pairs: dict[PairKey, int],
+                   shared_points: dict[PairKey, int]) -> list[tuple[PairKey, int, int]]:
+    """(pair, inliers, shared points) of the camera's pairs in conflict with the model."""
+    return [(key, n, shared_points.get(key, 0)) for key, n in pairs.items()
+            if image_id in key and key in shared_points and is_conflict(n, shared_points[key])]
+
+
+def missing_share(count: MissingCount | None) -> float | None:
+    """Share of the points expected in view that the camera did not match; None when too few
+    points were expected to judge."""
+    if count is None or count.expected < MISSING_MIN_EXPECTED:
+        return None
+    return 1.0 - count.matched / count.expected
+
+
+def closes_loop(cameras: list[SceneCamera], pairs: dict[PairKey, int],
+                shared_points: dict[PairKey, int]) -> bool:
+    """True when the capture ends where it began (an orbit): its last and first registered
+    cameras are placed like capture neighbours and matched consistently."""
+    placed = [c for c in cameras if c.registered]
+    if len(placed) < 3:
+        return False
+    first, last = placed[0], placed[-1]
+    key = pair_key(first.image_id, last.image_id)
+    closing = Step(last, first, float(np.hypot(first.x - last.x, first.y - last.y))
+                   / typical_step_of(placed), turn_deg(last.yaw_deg, first.yaw_deg),
+                   pairs.get(key, 0), shared_points.get(key, 0))
+    return (closing.inliers >= CONFLICT_MIN_INLIERS and not closing.breaks
+            and _same_heading(placed[-2], last, first))
+
+
+def _same_heading(a: SceneCamera, b: SceneCamera, c: SceneCamera) -> bool:
+    """True when b -> c moves the way a -> b did, seen from each step's start camera (within
+    45 deg): a loop's seam continues the walk, it does not step back."""
+    def heading(start: SceneCamera, end: SceneCamera) -> float:
+        return np.degrees(np.arctan2(end.y - start.y, end.x - start.x)) - start.yaw_deg
+
+    return turn_deg(heading(a, b), heading(b, c)) < 45.0
+
+
+def loop_start(cameras: list[SceneCamera], steps: list[Step]) -> int:
+    """Where to start walking a closed loop: right after its first break (0 without one)."""
+    for step in steps:
+        if step.breaks:
+            return next(i for i, c in enumerate(cameras) if c.image_id == step.after.image_id)
+    return 0
