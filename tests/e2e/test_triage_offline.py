@@ -21,11 +21,13 @@ pytestmark = pytest.mark.browser
 PROPOSAL = [{"image_id": 4, "x": 3.0, "y": 2.0, "yaw_deg": 45.0},
             {"image_id": 5, "x": 4.0, "y": 2.5, "yaw_deg": 50.0}]
 TRIAGE = {
-    "suspects": [{"image_id": 4, "score": 0.9, "reasons": ["4.1 steps from #3", "turns 80° against the capture"]},
+    "suspects": [{"image_id": 4, "score": 0.9,
+                  "reasons": ["4.1 steps from #3", "turns 80° against the capture"]},
                  {"image_id": 5, "score": 0.5, "reasons": ["joined to the rest through repeated texture"]},
                  {"image_id": 2, "score": 0.49, "reasons": ["just below the threshold"]},
                  {"image_id": 3, "score": 0.7, "reasons": ["matched none of 40 points it should see"]}],
-    "runs": [{"image_ids": [4, 5], "reason": "#4-#5 continue #1-#3's trajectory", "proposal": {"cameras": PROPOSAL}},
+    "runs": [{"image_ids": [4, 5], "reason": "#4-#5 continue #1-#3's trajectory",
+              "proposal": {"cameras": PROPOSAL}},
              {"image_ids": [3], "reason": "no proposal", "proposal": None}],
 }
 
@@ -71,7 +73,8 @@ def test_accept_undo_and_dismiss_a_proposal(page):
         got = cameras[proposed["image_id"]]
         assert (got["x"], got["y"], got["yaw_deg"]) == (proposed["x"], proposed["y"], proposed["yaw_deg"])
         assert got["fov_deg"] == 60.0 and got["range"] == 2.0  # the camera's own frustum
-    assert run.get_attribute("data-state") == "accepted" and page.get_attribute("#scene", "data-ghosts") == "0"
+    assert run.get_attribute("data-state") == "accepted"
+    assert page.get_attribute("#scene", "data-ghosts") == "0"
     page.locator("#scene").focus()
     page.keyboard.press("ArrowUp")  # an accepted proposal is an ordinary move: the keys go on from it
     page.keyboard.press("Control+z")
