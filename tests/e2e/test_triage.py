@@ -63,6 +63,7 @@ def test_queue_is_the_servers_raised_suspects_sorted_with_reasons(page, server, 
     raised = sorted((s for s in answer["suspects"] if s["score"] >= RAISE_AT),
                     key=lambda s: (-s["score"], seq[s["image_id"]]))
     assert raised, "the sample's first reconstruction (folded runs) raises no suspect"
+    assert any(s["score"] < RAISE_AT for s in answer["suspects"]), "nothing below the threshold to leave out"
     open_triage(page, server, sample_project)
     entries = page.locator("#suspect-list > li")
     assert [int(e.get_attribute("data-image-id")) for e in entries.all()] == [s["image_id"] for s in raised]
