@@ -243,10 +243,11 @@ def build_parser() -> argparse.ArgumentParser:
                            "help": "override one of the default rule's tolerances"}),
           ("--reuse", {"action": "store_true",
                        "help": "start from --out's existing sample and round0 if present"}),
-          ("--user", {"default": "wrong", "choices": ["wrong", "all", "proposals"],
+          ("--user", {"default": "wrong", "choices": ["wrong", "all", "proposals", "group"],
                       "help": "wrong: place the wrong cameras near their truth; all: re-lay every "
                               "camera of an orbit on a circle in capture order; proposals: accept "
-                              "every run `suspects` proposes, nothing else"}),
+                              "every run `suspects` proposes, nothing else; group: drag each "
+                              "split-off model into place as one piece"}),
           ("--json", {"action": "store_true"})])
     _register_service(sub)
     return parser

@@ -100,8 +100,10 @@ def _round_facts(edits, outcome, mapped) -> dict:
 # The simulated users: "wrong" places each wrong or unregistered camera near its true pose;
 # "all" is a capture-shape user who re-lays every camera of an orbit on one circle in capture
 # order (simulated_user.place_on_circle), the right ones included; "proposals" accepts every
-# run triage proposes (core/triage) and does nothing else: it never looks at the truth.
-USERS = ("wrong", "all", "proposals")
+# run triage proposes (core/triage) and does nothing else: it never looks at the truth; "group"
+# drags each split-off model as one piece onto its true place (simulated_user.move_groups) and
+# places the wrong cameras of the largest model as "wrong" does.
+USERS = ("wrong", "all", "proposals", "group")
 
 
 def _place(user: str, base: Workspace, truth, targets: list[str],
@@ -111,6 +113,12 @@ def _place(user: str, base: Workspace, truth, targets: list[str],
     if user == "proposals":
         runs = [r for r in triage_workspace(base).runs if r.proposal]
         return [c for r in runs for c in r.proposal], simulated_user.accepts(len(runs))
+    if user == "group":
+        moved, actions = simulated_user.move_groups(scene, truth, status.truth_from_model)
+        wrong = [n for n in targets if n in status.wrong]
+        placed = simulated_user.place_cameras(scene, truth, wrong, status.truth_from_model, seed)
+        by_hand = simulated_user.hand_actions(scene, placed)
+        return moved + placed, {k: actions[k] + by_hand[k] for k in actions}
     if user == "all":
         everyone = [c.name for c in scene.cameras if c.name in truth.cameras]
         placed = simulated_user.place_on_circle(scene, truth, everyone, status.truth_from_model,

@@ -90,3 +90,27 @@ def test_reconstruct_table_names_the_matcher_auto_chose_and_the_mapper(tiny_samp
     done = run("reconstruct", tiny_sample / "images", tmp_path / "ws", "--threads", "2", check=True)
     rows = dict(line.split(None, 1) for line in done.stdout.splitlines() if line.strip())
     assert rows["matcher"] == "auto: exhaustive" and rows["mapper"] == "incremental"
+
+
+def test_suspects_names_images_and_ends_with_the_json_document(tiny_workspace):
+    table = run("suspects", tiny_workspace, check=True)
+    document = json.loads(table.stdout.strip().splitlines()[-1])
+    assert table.stdout.startswith("suspects")  # a readable summary before the document
+    as_json = run("suspects", tiny_workspace, "--json", check=True)
+    assert json.loads(as_json.stdout) == document
+    from guided_sfm.core.workspace import Workspace
+
+    image_names = set(Workspace(tiny_workspace).image_names().values())
+    assert {s["name"] for s in document["suspects"]} == image_names
+    assert all(set(s) == {"name", "score", "reasons"} for s in document["suspects"])
+    for run_ in document["runs"]:
+        assert set(run_["names"]) <= image_names
+        assert [c["name"] for c in run_["proposal"]["cameras"]] == run_["names"]
+
+
+def test_a_proposal_is_an_edit_set_prune_takes(tiny_workspace, tmp_path):
+    document = json.loads(run("suspects", tiny_workspace, "--json", check=True).stdout)
+    edits = tmp_path / "edits.json"
+    edits.write_text(json.dumps({"cameras": document["runs"][0]["proposal"]["cameras"]}))
+    done = run("prune", tiny_workspace, edits, tmp_path / "new", "--dry-run", "--json", check=True)
+    assert json.loads(done.stdout.splitlines()[-1])["deleted_pairs"]

@@ -7,6 +7,8 @@ import pytest
 
 from guided_sfm.core import colmap_model
 from guided_sfm.core.topdown import scene_extent
+from guided_sfm.core.triage.of_workspace import triage_workspace
+from guided_sfm.core.triage.suspects import RAISE_SCORE
 from guided_sfm.core.types import CameraEdit, EditSet
 from guided_sfm.core.workspace import Workspace
 
@@ -55,6 +57,8 @@ def test_lund_round_that_moves_nothing_or_one_camera_does_no_harm(tmp_path):
     base = Workspace(tmp_path / "round0")
     base.reconstruct(LUND)
     assert sizes(base)[0] >= 25, f"COLMAP itself failed on Lund: models {sizes(base)}"
+    scores = [s.score for s in triage_workspace(base).suspects]
+    assert max(scores) < RAISE_SCORE, "triage raised a suspect on a capture COLMAP gets right"
     unmoved = correction_round(base, tmp_path / "same", EditSet(rule="default"))
     turn, shift, models = drift(base, unmoved)
     assert models <= len(base.load_models())  # no split (a warm map may drop a stray one)

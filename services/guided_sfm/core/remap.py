@@ -3,6 +3,7 @@ edited), guarded by a cold re-map when the warm result looks worse than where it
 
 from __future__ import annotations
 
+import logging
 import tempfile
 import time
 from dataclasses import dataclass
@@ -13,6 +14,8 @@ import pycolmap
 from guided_sfm.core import sfm
 from guided_sfm.core.errors import EmptyModel
 from guided_sfm.core.sfm import RunContext
+
+log = logging.getLogger(__name__)
 
 # Keeping the untouched cameras fixed is what makes a warm start fast; when many are touched,
 # the rest were likely bent by the same false matches, so they are refined too.
@@ -65,11 +68,12 @@ def warm_result_problem(base: pycolmap.Reconstruction, models: list[pycolmap.Rec
 
 
 def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
-              touched: set[int], run: RunContext) -> tuple[list | None, str | None]:
+              touched: set[int], run: RunContext, keep_fixed: bool = False
+              ) -> tuple[list | None, str | None]:
     """(models, why they are worse than the base or None) of a map from base_models[0] without
     the touched images; (None, why) when it registered nothing."""
     base = base_models[0]
-    fix = len(touched) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
+    fix = keep_fixed or len(touched) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
     with tempfile.TemporaryDirectory() as tmp:
         without_images(base, touched).write_binary(tmp)
         try:
@@ -77,18 +81,24 @@ def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: li
                                     fix_existing=fix)
         except EmptyModel:
             return None, "the warm start registered nothing"
+        except IndexError as exc:  # pycolmap on some models joined by a placement (issue 21)
+            log.warning("The warm start failed (%s); mapping cold.", exc)
+            return None, f"the warm start failed: {exc}"
     return warm, warm_result_problem(base, warm, len(base_models))
 
 
 def map_warm_or_cold(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
                      touched: set[int], run: RunContext = RunContext(),
-                     cold: bool = False) -> tuple[list[pycolmap.Reconstruction], MapReport]:
+                     cold: bool = False, keep_fixed: bool = False
+                     ) -> tuple[list[pycolmap.Reconstruction], MapReport]:
     """Map into sparse_dir: warm from base_models[0] without the touched images (those a round
-    edited) unless cold or there is no base."""
+    edited) unless cold or there is no base; keep_fixed keeps the base's cameras fixed (a model
+    joined by a placement: its parts share no matches a refinement could use)."""
     start = time.perf_counter()
     fallback, warm = None, None
     if not cold and base_models:
-        warm, fallback = _map_warm(database, image_dir, sparse_dir, base_models, touched, run)
+        warm, fallback = _map_warm(database, image_dir, sparse_dir, base_models, touched, run,
+                                   keep_fixed)
         if fallback is None:
             return warm, _report("warm", None, start, warm)
     try:

@@ -106,3 +106,36 @@ def hand_actions(scene: TopDownScene, placed: list[CameraEdit]) -> dict[str, int
 def accepts(runs: int) -> dict[str, int]:
     """A user who accepts proposed runs: one click per run, nothing dragged or turned."""
     return {"drags": 0, "key_presses": 0, "accepts": runs}
+
+
+def _true_pose_2d(scene: TopDownScene, truth: Truth, name: str,
+                  truth_from_model: Similarity) -> tuple[float, float, float]:
+    """(x, y, yaw_deg) of a camera's true pose in the scene's frame."""
+    rotation = np.asarray(truth_from_model.rotation)
+    xy = _model_ground(scene, truth, [name], truth_from_model)[0]
+    yaw = yaw_in_frame(rotation.T @ viewing_direction(truth.cameras[name].rotation), scene.frame)
+    return float(xy[0]), float(xy[1]), float(yaw)
+
+
+def move_groups(scene: TopDownScene, truth: Truth, truth_from_model: Similarity
+                ) -> tuple[list[CameraEdit], dict[str, int]]:
+    """A user who drags each split-off model (its cameras at their group_pose) as one piece
+    onto where it belongs and turns it there: one drag and the rotation keys per group. The
+    piece keeps its own shape (the best rigid fit of its group poses to the truth)."""
+    from guided_sfm.core.triage import poses2d  # the editor's group move is a rigid 2D motion
+
+    groups: dict[int, list] = {}
+    for camera in scene.cameras:
+        if camera.group_pose is not None and camera.name in truth.cameras:
+            groups.setdefault(camera.model, []).append(camera)
+    edits, keys = [], 0
+    for cameras in groups.values():
+        source = np.array([poses2d.pose(**c.group_pose) for c in cameras])
+        target = np.array([poses2d.pose(*_true_pose_2d(scene, truth, c.name, truth_from_model))
+                           for c in cameras])
+        motion = poses2d.fit_rigid(source, target, float(np.ptp(target[:, :2], axis=0).max()))
+        keys += key_presses_to_turn(float(np.degrees(motion[2])))
+        for camera, pose in zip(cameras, poses2d.apply(motion, source), strict=True):
+            edits.append(CameraEdit(camera.image_id, float(pose[0]), float(pose[1]),
+                                    float((np.degrees(pose[2]) + 180.0) % 360.0 - 180.0)))
+    return edits, {"drags": len(groups), "key_presses": keys, "accepts": 0}

@@ -18,7 +18,16 @@ from pathlib import Path
 
 import pycolmap
 
-from guided_sfm.core import colmap_db, colmap_model, match_graph, remap, retrieval, sfm, topdown
+from guided_sfm.core import (
+    colmap_db,
+    colmap_model,
+    join_groups,
+    match_graph,
+    remap,
+    retrieval,
+    sfm,
+    topdown,
+)
 from guided_sfm.core.edits import edits_to_json
 from guided_sfm.core.errors import EmptyModel, MissingWorkspace
 from guided_sfm.core.rule import driver, evidence
@@ -27,7 +36,7 @@ from guided_sfm.core.sfm import RunContext
 from guided_sfm.core.types import DEFAULT_RULE, EditSet, PairKey, Progress, PruneResult, TopDownScene
 
 DATABASE, SPARSE, SCENE, META = "database.db", "sparse", "scene.json", "workspace.json"
-EDITS, PRUNING = "edits.json", "pruning.json"
+EDITS, PRUNING, JOINED = "edits.json", "pruning.json", "joined.json"
 # Share of a reconstruction spent in each step, so one job reports one rising fraction.
 STAGE_SPANS = {"extract": (0.0, 0.2), "match": (0.2, 0.75), "map": (0.75, 1.0)}
 
@@ -132,7 +141,10 @@ class Workspace:
         if not self.edits_file.is_file():
             return set()
         edits = json.loads(self.edits_file.read_text())
-        return {c["image_id"] for c in edits.get("cameras", [])} | {
+        # cameras of a sub-model joined by their placement keep the pose it gave them
+        joined_file = self.root / JOINED
+        joined = set(json.loads(joined_file.read_text())) if joined_file.is_file() else set()
+        return ({c["image_id"] for c in edits.get("cameras", [])} - joined) | {
             i for pair in edits.get("delete_pairs", []) for i in pair}
 
     def stats(self) -> dict[str, int]:
@@ -191,7 +203,8 @@ class Workspace:
         staging = self.root / (SPARSE + ".new")
         try:
             models, report = remap.map_warm_or_cold(database, image_dir or self.image_dir(), staging,
-                                                    base_models, touched, run, cold)
+                                                    base_models, touched, run, cold,
+                                                    keep_fixed=(self.root / JOINED).is_file())
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
             raise
@@ -234,11 +247,24 @@ class Workspace:
         new.root.mkdir(parents=True, exist_ok=True)
         colmap_db.copy_without_pairs(self.require(), new.database, outcome.deleted)
         self._copy_models_to(new)
+        new.join_placed_groups(edits, self.scene().frame)
         new.write_meta({**self.read_meta(), "parent": str(self.root.resolve())})
         new.edits_file.write_text(json.dumps(edits_to_json(edits), indent=2))
         record = pruning_record(outcome, new.image_names())
         new.pruning_file.write_text(json.dumps(record, indent=2))
         return outcome
+
+    def join_placed_groups(self, edits: EditSet, frame) -> set[int]:
+        """Merge the sub-models the edit set places into the largest (core/join_groups.py),
+        rewriting sparse/ and recording the joined images in joined.json."""
+        models = self.load_models()
+        merged, joined = join_groups.join_placed(models, edits.cameras, frame)
+        (self.root / JOINED).unlink(missing_ok=True)  # a workspace pruned into again
+        if joined:
+            shutil.rmtree(self.sparse)
+            sfm.write_models(merged, self.sparse)
+            (self.root / JOINED).write_text(json.dumps(sorted(joined)))
+        return joined
 
     def _copy_models_to(self, new: Workspace) -> None:
         for source, target in ((self.sparse, new.sparse), (self.scene_file, new.scene_file)):

@@ -9,9 +9,11 @@ from guided_sfm.sample import writer
 from guided_sfm.sample.hall import HALL_LAYOUTS
 from guided_sfm.sample.layouts import LAYOUT_BUILDERS
 from guided_sfm.sample.objects import OBJECT_LAYOUTS
+from guided_sfm.sample.split import SPLIT_LAYOUTS
 
 LAYOUT_BUILDERS.update(OBJECT_LAYOUTS)  # the writer renders any layout registered here
 LAYOUT_BUILDERS.update(HALL_LAYOUTS)
+LAYOUT_BUILDERS.update(SPLIT_LAYOUTS)
 LAYOUTS = dict(LAYOUT_BUILDERS)
 DEFAULT_LAYOUT = "murals"
 

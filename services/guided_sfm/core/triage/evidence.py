@@ -37,6 +37,7 @@ class TriageInput:
     pairs: dict[PairKey, int]
     shared_points: dict[PairKey, int] = field(default_factory=dict)
     missing: dict[int, MissingCount] = field(default_factory=dict)
+    anchors: list = field(default_factory=list)  # two_view.Anchor of pairs the model cannot hold
 
 
 def shared_point_counts(observed: dict[int, np.ndarray], pairs: Iterable[PairKey]) -> dict[PairKey, int]:

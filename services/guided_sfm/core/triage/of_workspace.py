@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from guided_sfm.core.triage import evidence
+import dataclasses
+
+from guided_sfm.core.triage import evidence, signals, two_view
 from guided_sfm.core.triage.suspects import Triage, triage
 from guided_sfm.core.workspace import Workspace
 
@@ -11,5 +13,12 @@ def triage_workspace(workspace: Workspace) -> Triage:
     """Suspects and runs of the workspace's scene, verified pairs and largest model."""
     scene = workspace.scene()
     models = workspace.load_models()
-    model, model_dir = (models[0], workspace.model_dir(0)) if models else (None, None)
-    return triage(evidence.gather(scene, workspace.verified_pairs(), model, model_dir))
+    if not models:
+        return triage(evidence.gather(scene, workspace.verified_pairs(), None, None))
+    data = evidence.gather(scene, workspace.verified_pairs(), models[0], workspace.model_dir(0))
+    cameras = sorted(scene.cameras, key=lambda c: c.seq)
+    share = signals.typical_share(cameras, data.pairs, data.shared_points)
+    conflicts = [key for key, n in data.pairs.items() if key in data.shared_points
+                 and signals.is_conflict(n, data.shared_points[key], share)]
+    anchors = two_view.anchors_of(workspace.require(), models[0], scene.frame, conflicts)
+    return triage(dataclasses.replace(data, anchors=anchors))

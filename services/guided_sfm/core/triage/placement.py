@@ -16,6 +16,7 @@ from guided_sfm.core.triage.signals import BREAK_STEPS, turn_deg
 
 # A piece whose end lands within these of the continuation of its placed neighbour is trusted.
 TRUST_TURN_DEG = 45.0
+CONTINUE_FROM = 4  # steps of the placed neighbour a continuation follows
 
 
 @dataclass
@@ -34,11 +35,21 @@ def anchor_of(pieces: list[Piece]) -> int | None:
 
 
 def _ahead(poses: np.ndarray, step: float) -> np.ndarray:
-    """The pose after the last of poses at the motion between its last two (a single pose:
-    one typical step straight ahead)."""
-    if len(poses) >= 2:
-        return poses2d.continue_forward(poses[-2], poses[-1])
-    return poses2d.compose(poses[-1], np.array([step, 0.0, 0.0]))
+    """The pose after the last of poses, walking on at the mean step length, heading and turn
+    of the last few (hand-held yaw sways from shot to shot; the mean does not); a single pose:
+    one typical step straight ahead."""
+    if len(poses) < 2:
+        return poses2d.compose(poses[-1], np.array([step, 0.0, 0.0]))
+    recent = np.asarray(poses)[-(CONTINUE_FROM + 1):]
+    k = len(recent) - 1
+    moves = np.diff(recent[:, :2], axis=0)
+    yaws = np.unwrap(recent[:, 2])
+    rate = float(np.mean(np.diff(yaws)))  # turn per step
+    headings = np.unwrap(np.arctan2(moves[:, 1], moves[:, 0]))
+    heading = float(np.mean(headings)) + rate * (k + 1) / 2
+    length = float(np.mean(np.linalg.norm(moves, axis=1)))
+    yaw = float(np.mean(yaws)) + rate * (k / 2 + 1)
+    return np.array([*(recent[-1, :2] + length * np.array([np.cos(heading), np.sin(heading)])), yaw])
 
 
 def _reverse(poses: np.ndarray) -> np.ndarray:
@@ -71,8 +82,9 @@ def _flipped(piece: Piece) -> Piece:
     return Piece(piece.kind, piece.cameras[::-1], poses, piece.break_after, piece.break_before)
 
 
-def place_pieces(pieces: list[Piece], step: float) -> Placement | None:
-    """Where every piece probably belongs, walking out from the anchor both ways."""
+def place_pieces(pieces: list[Piece], step: float, anchors: list = ()) -> Placement | None:
+    """Where every piece probably belongs, walking out from the anchor both ways; a moved piece
+    whose pairs to trusted cameras say where it is (two_view.Anchor) is fitted to them."""
     anchor = anchor_of(pieces)
     if anchor is None:
         return None
@@ -85,6 +97,7 @@ def place_pieces(pieces: list[Piece], step: float) -> Placement | None:
         placed, trusted[i] = _place_after(_flipped(pieces[i]), _reverse(poses[i + 1]), step)
         poses[i] = _reverse(placed)
     _between_trusted(pieces, poses, trusted, step)
+    _to_anchors(pieces, poses, trusted, anchors, step)
     return Placement(poses, trusted, anchor)
 
 
@@ -99,3 +112,48 @@ def _between_trusted(pieces: list[Piece], poses: list, trusted: list[bool], step
         source = np.array([piece.poses[0], piece.poses[-1]])
         motion = poses2d.fit_rigid(source, np.array([from_before, from_after]), 2 * step)
         poses[i] = poses2d.apply(motion, piece.poses)
+
+
+# A piece is fitted to its two-view anchors when at least this many agree, from directions this
+# far apart, on a yaw within this spread; a ray may miss the fitted camera by this many steps.
+MIN_ANCHORS, MIN_RAY_SPREAD_DEG, MAX_YAW_SPREAD_DEG, MAX_MISS_STEPS = 3, 10.0, 20.0, 1.0
+
+
+def _to_anchors(pieces: list[Piece], poses: list, trusted: list[bool], anchors: list,
+                step: float) -> None:
+    """Refit each moved piece to where its pairs with trusted cameras put it."""
+    known = {c.image_id: p for i, piece in enumerate(pieces) if trusted[i]
+             for c, p in zip(piece.cameras, piece.poses, strict=True)}
+    for i, piece in enumerate(pieces):
+        if trusted[i] or piece.kind == LOOSE:
+            continue
+        own = {c.image_id: p for c, p in zip(piece.cameras, piece.poses, strict=True)}
+        mine = [a for a in anchors if a.image_id in own and a.anchor in known]
+        motion = fit_to_anchors(own, known, mine, step)
+        if motion is not None:
+            poses[i] = poses2d.apply(motion, piece.poses)
+
+
+def fit_to_anchors(own: dict[int, np.ndarray], known: dict[int, np.ndarray], anchors: list,
+                   step: float) -> np.ndarray | None:
+    """The rigid motion (as a pose applied on the left) that turns the piece's own poses to the
+    anchors' yaws and puts each camera on its anchor's ray; None when they do not agree."""
+    if len(anchors) < MIN_ANCHORS:
+        return None
+    turns = np.array([np.radians(a.yaw_deg) - own[a.image_id][2] for a in anchors])
+    angle = float(np.angle(np.mean(np.exp(1j * turns))))
+    if np.degrees(np.abs(np.angle(np.exp(1j * (turns - angle))))).max() > MAX_YAW_SPREAD_DEG:
+        return None
+    rays = np.array([a.ray_rad for a in anchors])
+    if np.degrees(np.ptp(np.unwrap(rays))) < MIN_RAY_SPREAD_DEG:
+        return None
+    turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    turned = np.array([turn @ own[a.image_id][:2] for a in anchors])
+    origins = np.array([known[a.anchor][:2] for a in anchors])
+    normals = np.stack([-np.sin(rays), np.cos(rays)], axis=1)
+    shift = np.linalg.lstsq(normals, np.einsum("ij,ij->i", normals, origins - turned), rcond=None)[0]
+    ahead = np.einsum("ij,ij->i", turned + shift - origins, np.stack([np.cos(rays), np.sin(rays)], 1))
+    misses = np.abs(np.einsum("ij,ij->i", normals, turned + shift - origins))
+    if misses.max() > MAX_MISS_STEPS * step or (ahead < 0).mean() > 0.5:
+        return None
+    return np.array([shift[0], shift[1], angle])

@@ -11,12 +11,16 @@ import numpy as np
 from guided_sfm.core.triage.evidence import MissingCount
 from guided_sfm.core.types import PairKey, SceneCamera, pair_key
 
-# A capture-order step this many typical steps long breaks the capture's continuity; a turn this
-# sharp does when the step is also unusually long (hand-held walks sway by 20 deg a step).
+# A capture-order step this many typical steps long breaks the capture's continuity when it also
+# turns this sharply (hand-held walks sway by 20 deg a step) or its pair shares under half the
+# capture's typical share of 3D points; a long step alone does not (people walk unevenly: on Lund
+# the last photos are 5-10 typical steps apart).
 BREAK_STEPS, TURN_BREAK_DEG, TURN_BREAK_STEPS = 3.0, 60.0, 2.0
 # A pair is in conflict with the model when it has this many inliers and the model gives both
-# images fewer than this share of them as common 3D points (true matches the model cannot hold).
-CONFLICT_MIN_INLIERS, CONFLICT_SHARE = 30, 0.15
+# images fewer than this share of the capture's typical share of its inliers as common 3D points
+# (true matches the model cannot hold). The typical share is the median over capture neighbours:
+# ~0.9 on renderings, ~0.3 on real photographs whose matches are not all triangulated.
+CONFLICT_MIN_INLIERS, CONFLICT_SHARE, WEAK_SHARE = 30, 0.25, 0.5
 # The missing-correspondence cue counts only with this many points expected in view.
 MISSING_MIN_EXPECTED = 30
 
@@ -31,22 +35,38 @@ class Step:
     turn_deg: float
     inliers: int  # of their verified pair, 0 if none
     shared_points: int
+    typical_share: float = 1.0  # the capture's median share of inliers held as 3D points
 
     @property
     def conflict(self) -> bool:
-        return is_conflict(self.inliers, self.shared_points)
+        return is_conflict(self.inliers, self.shared_points, self.typical_share)
 
     @property
     def breaks(self) -> bool:
         """True when the two are not placed like neighbours of one continuous capture."""
-        long_jump = self.length_steps >= BREAK_STEPS
-        sharp_turn = self.turn_deg >= TURN_BREAK_DEG and self.length_steps >= TURN_BREAK_STEPS
-        return long_jump or sharp_turn or (self.conflict and self.length_steps >= TURN_BREAK_STEPS)
+        if self.length_steps < TURN_BREAK_STEPS:
+            return False
+        if self.conflict:
+            return True
+        weak = self.shared_points < WEAK_SHARE * self.typical_share * max(self.inliers, 1)
+        sharp = self.turn_deg >= TURN_BREAK_DEG
+        return self.length_steps >= BREAK_STEPS and (weak or sharp)
 
 
-def is_conflict(inliers: int, shared_points: int) -> bool:
+def is_conflict(inliers: int, shared_points: int, typical_share: float = 1.0) -> bool:
     """Many verified matches, but the model shares next to none of them as 3D points."""
-    return inliers >= CONFLICT_MIN_INLIERS and shared_points < CONFLICT_SHARE * inliers
+    return (inliers >= CONFLICT_MIN_INLIERS
+            and shared_points < CONFLICT_SHARE * typical_share * inliers)
+
+
+def typical_share(cameras: list[SceneCamera], pairs: dict[PairKey, int],
+                  shared_points: dict[PairKey, int]) -> float:
+    """Median share of a capture-neighbour pair's inliers that the model holds as 3D points."""
+    placed = [c for c in cameras if c.registered]
+    shares = [shared_points.get(k, 0) / pairs[k] for k in
+              (pair_key(a.image_id, b.image_id) for a, b in zip(placed[:-1], placed[1:], strict=True))
+              if pairs.get(k, 0) >= CONFLICT_MIN_INLIERS]
+    return float(np.clip(np.median(shares), 0.05, 1.0)) if shares else 1.0
 
 
 def typical_step_of(cameras: list[SceneCamera]) -> float:
@@ -67,20 +87,23 @@ def steps_between(cameras: list[SceneCamera], pairs: dict[PairKey, int],
     """Every step between capture neighbours that are both registered, in capture order."""
     placed = [c for c in cameras if c.registered]
     step = typical_step_of(placed)
+    share = typical_share(placed, pairs, shared_points)
     out = []
     for a, b in zip(placed[:-1], placed[1:], strict=True):
         key = pair_key(a.image_id, b.image_id)
         out.append(Step(a, b, float(np.hypot(b.x - a.x, b.y - a.y)) / step,
                         turn_deg(a.yaw_deg, b.yaw_deg), pairs.get(key, 0),
-                        shared_points.get(key, 0)))
+                        shared_points.get(key, 0), share))
     return out
 
 
-def conflict_pairs(image_id: int, pairs: dict[PairKey, int],
-                   shared_points: dict[PairKey, int]) -> list[tuple[PairKey, int, int]]:
-    """(pair, inliers, shared points) of the camera's pairs in conflict with the model."""
+def conflict_pairs(image_id: int, pairs: dict[PairKey, int], shared_points: dict[PairKey, int],
+                   share: float = 1.0) -> list[tuple[PairKey, int, int]]:
+    """(pair, inliers, shared points) of the camera's pairs in conflict with the model, against
+    the capture's typical share."""
     return [(key, n, shared_points.get(key, 0)) for key, n in pairs.items()
-            if image_id in key and key in shared_points and is_conflict(n, shared_points[key])]
+            if image_id in key and key in shared_points
+            and is_conflict(n, shared_points[key], share)]
 
 
 def missing_share(count: MissingCount | None) -> float | None:
@@ -102,7 +125,8 @@ def closes_loop(cameras: list[SceneCamera], pairs: dict[PairKey, int],
     key = pair_key(first.image_id, last.image_id)
     closing = Step(last, first, float(np.hypot(first.x - last.x, first.y - last.y))
                    / typical_step_of(placed), turn_deg(last.yaw_deg, first.yaw_deg),
-                   pairs.get(key, 0), shared_points.get(key, 0))
+                   pairs.get(key, 0), shared_points.get(key, 0),
+                   typical_share(placed, pairs, shared_points))
     return (closing.inliers >= CONFLICT_MIN_INLIERS and not closing.breaks
             and _same_heading(placed[-2], last, first))
 

@@ -62,11 +62,12 @@ def triage(data: TriageInput) -> Triage:
     group_poses = {c.image_id: (c.group_pose["x"], c.group_pose["y"], c.group_pose["yaw_deg"])
                    for c in cameras if c.group_pose is not None}
     pieces = cut_pieces(cameras, steps, group_poses)
-    placement = place_pieces(pieces, step)
+    placement = place_pieces(pieces, step, data.anchors)
     if placement is None:
         return Triage([], [])
     moved = [i for i, piece in enumerate(pieces) if not placement.trusted[i]]
-    suspects = [_judge(c, pieces, placement, i, data)
+    share = signals.typical_share(cameras, data.pairs, data.shared_points)
+    suspects = [_judge(c, pieces, placement, i, data, share)
                 for i, piece in enumerate(pieces) if piece.kind == PLACED for c in piece.cameras]
     suspects.sort(key=lambda s: (-s.score, s.image_id))
     scores = {s.image_id: s.score for s in suspects}
@@ -121,10 +122,11 @@ def _boundary_reasons(piece: Piece) -> tuple[list[str], float, bool]:
     return reasons, longest, conflict
 
 
-def _camera_reasons(camera, data: TriageInput) -> tuple[list[str], bool, bool]:
-    """(reasons, has conflicting pairs, misses what others see) of one camera."""
+def _camera_reasons(camera, data: TriageInput, share: float) -> tuple[list[str], bool, bool]:
+    """(reasons, has conflicting pairs, misses what others see) of one camera; share: the
+    capture's typical share of inliers held as 3D points."""
     reasons = []
-    conflicts = signals.conflict_pairs(camera.image_id, data.pairs, data.shared_points)
+    conflicts = signals.conflict_pairs(camera.image_id, data.pairs, data.shared_points, share)
     if conflicts:
         worst = max(conflicts, key=lambda c: c[1])
         other = data.scene.camera(worst[0][0] if worst[0][1] == camera.image_id else worst[0][1])
@@ -140,9 +142,9 @@ def _camera_reasons(camera, data: TriageInput) -> tuple[list[str], bool, bool]:
 
 
 def _judge(camera, pieces: list[Piece], placement: Placement, index: int,
-           data: TriageInput) -> Suspect:
+           data: TriageInput, share: float) -> Suspect:
     piece, anchor = pieces[index], pieces[placement.anchor]
-    own, has_conflicts, missing = _camera_reasons(camera, data)
+    own, has_conflicts, missing = _camera_reasons(camera, data, share)
     if placement.trusted[index]:
         at_break = camera in (piece.cameras[0], piece.cameras[-1]) and (
             piece.break_before or piece.break_after)

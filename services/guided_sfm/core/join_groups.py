@@ -1,0 +1,107 @@
+"""Join split models by the user's placement: when an edit set places the cameras of a model other
+than the largest (a group move), that model is carried into the largest model's world by the
+similarity the placements imply and merged into it (cameras at their carried poses, its points
+with their tracks), so the re-map starts from one model. Nothing in the matches links the two
+parts (that is why COLMAP split them); the placement is the link."""
+
+from __future__ import annotations
+
+import numpy as np
+import pycolmap
+
+from guided_sfm.core import geometry, metrics
+from guided_sfm.core.colmap_model import model_poses, to_sim3d
+from guided_sfm.core.group_pose import spacing
+from guided_sfm.core.types import CameraEdit, GroundFrame
+
+# A sub-model is joined when the edit set places at least this share of its cameras.
+MIN_PLACED_SHARE = 0.5
+
+
+def placed_groups(models: list[pycolmap.Reconstruction], placements: list[CameraEdit]) -> list[int]:
+    """Indexes (>= 1) of the sub-models whose cameras the placements mostly place."""
+    placed = {c.image_id for c in placements}
+    out = []
+    for index, model in enumerate(models[1:], start=1):
+        ids = set(model.reg_image_ids())
+        if ids and len(ids & placed) >= MIN_PLACED_SHARE * len(ids):
+            out.append(index)
+    return out
+
+
+def _lifted(edit: CameraEdit, frame: GroundFrame, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """A placement's centre (at the largest model's camera height) and heading, in 3D."""
+    yaw = np.radians(edit.yaw_deg)
+    center = frame.origin + edit.x * frame.x_axis + edit.y * frame.y_axis + height * frame.up
+    return center, np.cos(yaw) * frame.x_axis + np.sin(yaw) * frame.y_axis
+
+
+def _horizontal(direction: np.ndarray, up: np.ndarray) -> np.ndarray:
+    flat = direction - (direction @ up) * up
+    return flat / (np.linalg.norm(flat) or 1.0)
+
+
+def group_similarity(model: pycolmap.Reconstruction, placements: list[CameraEdit],
+                     frame: GroundFrame, height: float, largest_spacing: float
+                     ) -> metrics.Similarity | None:
+    """The similarity carrying the sub-model onto its placements: centres onto the placed
+    centres, headings onto the placed yaws, its cameras' mean up onto the scene's up."""
+    poses = model_poses(model)
+    edits = [c for c in placements if c.image_id in poses]
+    if not edits:
+        return None
+    ups = np.array([geometry.camera_up(poses[c.image_id].rotation) for c in edits])
+    up = ups.mean(axis=0) / np.linalg.norm(ups.mean(axis=0))
+    src_c = np.array([poses[c.image_id].center for c in edits])
+    src_d = np.array([_horizontal(geometry.viewing_direction(poses[c.image_id].rotation), up)
+                      for c in edits])
+    lifted = [_lifted(c, frame, height) for c in edits]
+    dst_c, dst_d = np.array([p for p, _ in lifted]), np.array([d for _, d in lifted])
+    own = spacing(src_c) or 1.0
+    scale = largest_spacing / own if largest_spacing > 0 else 1.0
+    src = np.vstack([src_c, src_c + own * src_d, src_c + own * up])
+    dst = np.vstack([dst_c, dst_c + own * scale * dst_d, dst_c + own * scale * frame.up])
+    s, rotation, translation = metrics.umeyama(src, dst)
+    return metrics.Similarity(s, rotation, translation)
+
+
+def merge_into(largest: pycolmap.Reconstruction, other: pycolmap.Reconstruction) -> int:
+    """Add other's registered images (posed as in other) and its points to largest; returns the
+    number of images added. Both come from the same database, so image ids agree."""
+    added = 0
+    for image_id in sorted(other.reg_image_ids()):
+        if largest.exists_image(image_id):
+            continue
+        image = other.image(image_id)
+        if not largest.exists_camera(image.camera_id):
+            largest.add_camera_with_trivial_rig(other.camera(image.camera_id))
+        fresh = pycolmap.Image(name=image.name, keypoints=np.array([p.xy for p in image.points2D]),
+                               camera_id=image.camera_id, image_id=image_id)
+        largest.add_image_with_trivial_frame(fresh, image.cam_from_world())
+        added += 1
+    for point in other.points3D.values():
+        largest.add_point3D(point.xyz, pycolmap.Track(point.track.elements), point.color)
+    return added
+
+
+def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEdit],
+                frame: GroundFrame) -> tuple[list[pycolmap.Reconstruction], set[int]]:
+    """(models with every placed sub-model merged into the largest, the image ids joined)."""
+    groups = placed_groups(models, placements)
+    if not groups:
+        return models, set()
+    largest = pycolmap.Reconstruction(models[0])
+    poses = sorted(model_poses(largest).values(), key=lambda p: p.name)
+    centers = np.array([p.center for p in poses])
+    height = float(np.median((centers - frame.origin) @ frame.up))
+    joined: set[int] = set()
+    for index in groups:
+        sim = group_similarity(models[index], placements, frame, height, spacing(centers))
+        if sim is None:
+            continue
+        other = pycolmap.Reconstruction(models[index])
+        other.transform(to_sim3d(sim))
+        merge_into(largest, other)
+        joined |= set(other.reg_image_ids())
+    rest = [m for i, m in enumerate(models[1:], start=1) if i not in groups]
+    return [largest, *rest], joined

@@ -1,0 +1,84 @@
+"""Split models: group_pose beside the largest model, and joining a placed sub-model into it."""
+
+import numpy as np
+import pycolmap
+import pytest
+
+from guided_sfm.core import geometry
+from guided_sfm.core.colmap_model import model_poses, to_sim3d
+from guided_sfm.core.join_groups import join_placed
+from guided_sfm.core.metrics import Similarity
+from guided_sfm.core.types import CameraEdit
+from tests.core.test_topdown import _build, _model
+
+LARGEST = [(f"a{i}.png", i + 1, (2.0 * i, 0.0, 1.5), 90.0 + 5 * (i % 2)) for i in range(5)]
+OTHER = [(f"b{i}.png", i + 11, (2.0 * i + 1.0, 3.0 + 0.5 * (i % 2), 1.5), -90.0 - 4 * i)
+         for i in range(4)]
+
+
+def split_models():
+    """The largest model in the world's frame, the other in its own (turned, tilted, scaled)."""
+    largest, other = _model(LARGEST), _model(OTHER)
+    tilt = geometry.rotations_about(np.array([1.0, 0.3, 0.2]), np.array([1.2]))[0]
+    other.transform(to_sim3d(Similarity(0.4, tilt, np.array([5.0, -2.0, 7.0]))))
+    return largest, other
+
+
+@pytest.fixture
+def scene_and_models(tmp_path):
+    largest, other = split_models()
+    images = [(i, n) for n, i, _, _ in LARGEST + OTHER]
+    return _build([largest, other], images, tmp_path), [largest, other]
+
+
+def test_a_sub_model_keeps_its_shape_beside_the_largest(scene_and_models):
+    scene, _ = scene_and_models
+    placed = [c for c in scene.cameras if c.registered]
+    group = [c for c in scene.cameras if c.group_pose is not None]
+    assert [c.name for c in group] == [n for n, *_ in OTHER]
+    assert all((c.x, c.y, c.yaw_deg, c.center) == (None,) * 4 for c in group)  # v1 fields null
+    xy = np.array([(c.group_pose["x"], c.group_pose["y"]) for c in group])
+    assert xy[:, 0].min() > max(c.x for c in placed)  # set down beside, not on top
+    true_xy = np.array([c[:2] for _, _, c, _ in OTHER])
+    own = np.linalg.norm(xy[:, None] - xy[None], axis=2)
+    truth = np.linalg.norm(true_xy[:, None] - true_xy[None], axis=2)
+    # scaled to the largest model's spacing: the walks' median steps differ a little
+    np.testing.assert_allclose(own / own.max(), truth / truth.max(), atol=1e-6)
+    turns = np.diff([c.group_pose["yaw_deg"] for c in group])
+    np.testing.assert_allclose(turns, np.diff([y for *_, y in OTHER]), atol=1e-6)
+
+
+def test_a_placed_sub_model_joins_the_largest_where_it_was_placed(scene_and_models):
+    scene, models = scene_and_models
+    placements = []
+    for name, image_id, center, yaw in OTHER:
+        x, y = scene.frame.to_2d(np.array([center]))[0]
+        placements.append(CameraEdit(image_id, float(x), float(y),
+                                     float(geometry.yaw_in_frame(
+                                         geometry.viewing_direction(
+                                             _model([(name, image_id, center, yaw)])
+                                             .image(image_id).cam_from_world().rotation.matrix()),
+                                         scene.frame))))
+    merged, joined = join_placed(models, placements, scene.frame)
+    assert len(merged) == 1 and joined == {i for _, i, _, _ in OTHER}
+    poses = model_poses(merged[0])
+    for _name, image_id, center, _ in OTHER:
+        np.testing.assert_allclose(poses[image_id].center, center, atol=0.05)
+    assert merged[0].num_points3D() > models[0].num_points3D()
+
+
+def test_nothing_joins_without_a_placement(scene_and_models):
+    scene, models = scene_and_models
+    merged, joined = join_placed(models, [CameraEdit(1, 0.0, 0.0, 90.0)], scene.frame)
+    assert merged is models and joined == set()
+
+
+def test_merge_keeps_image_ids_and_tracks():
+    largest, other = _model(LARGEST), _model(OTHER)
+    count = largest.num_points3D()
+    from guided_sfm.core.join_groups import merge_into
+
+    assert merge_into(largest, other) == len(OTHER)
+    assert set(largest.reg_image_ids()) == {i for _, i, _, _ in LARGEST + OTHER}
+    assert largest.num_points3D() == count + other.num_points3D()
+    assert isinstance(largest, pycolmap.Reconstruction)

@@ -1,0 +1,128 @@
+"""Triage's signals, runs and proposals on hand-made captures (no reconstruction)."""
+
+import numpy as np
+import pytest
+
+from guided_sfm.core.triage import poses2d, signals
+from guided_sfm.core.triage.evidence import MissingCount, TriageInput
+from guided_sfm.core.triage.suspects import RAISE_SCORE, triage
+from guided_sfm.core.types import GroundFrame, SceneCamera, TopDownScene, pair_key
+
+FRAME = GroundFrame(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0]))
+
+
+def camera(i, x, y, yaw, registered=True, group=None):
+    pose = (x, y, yaw) if registered else (None, None, None)
+    return SceneCamera(i + 1, f"{i:04d}.jpg", i, registered, 0 if registered else 1, *pose, 60.0,
+                       3.0, (x, y, 1.5) if registered else None, None, group)
+
+
+def capture(true_poses, placed_poses, registered=None, groups=None):
+    """A scene of cameras at placed_poses; pairs between cameras within 2.5 m of each other in
+    truth, whose 3D overlap is high where the placement agrees with the truth and nil where not."""
+    n = len(true_poses)
+    registered = registered or [True] * n
+    groups = groups or {}
+    cams = [camera(i, *placed_poses[i], registered[i], groups.get(i)) for i in range(n)]
+    pairs, shared = {}, {}
+    for i in range(n):
+        for j in range(i + 1, n):
+            true_gap = np.hypot(*(np.subtract(true_poses[i][:2], true_poses[j][:2])))
+            if true_gap > 2.5:
+                continue
+            placed_gap = np.hypot(*(np.subtract(placed_poses[i][:2], placed_poses[j][:2])))
+            key = pair_key(i + 1, j + 1)
+            pairs[key] = 150
+            if registered[i] and registered[j]:
+                shared[key] = 100 if abs(placed_gap - true_gap) < 0.5 else 2
+    return TriageInput(TopDownScene(FRAME, cams, np.zeros((0, 2))), pairs, shared)
+
+
+def straight(n, step=1.0):
+    return [(i * step, 0.0, 90.0 + 8 * np.sin(1.3 * i)) for i in range(n)]
+
+
+def raised(result):
+    return {s.image_id - 1 for s in result.suspects if s.score >= RAISE_SCORE}
+
+
+def test_a_long_jump_breaks_continuity_but_a_sway_does_not():
+    walk = straight(6)
+    walk[3] = (walk[3][0], 0.0, walk[3][2] + 25)  # a 25 deg sway
+    placed = walk[:4] + [(x + 6.0, y, yaw) for x, y, yaw in walk[4:]]
+    data = capture(walk, placed)
+    steps = signals.steps_between(data.scene.cameras, data.pairs, data.shared_points)
+    assert [s.breaks for s in steps] == [False, False, False, True, False]
+    assert steps[3].conflict and steps[3].length_steps > 6
+
+
+@pytest.mark.parametrize(("inliers", "shared", "conflict"),
+                         [(100, 5, True), (100, 60, False), (20, 0, False), (30, 4, True)])
+def test_a_conflict_is_many_matches_the_model_does_not_share(inliers, shared, conflict):
+    assert signals.is_conflict(inliers, shared) is conflict
+
+
+def test_missing_share_needs_enough_expected_points():
+    assert signals.missing_share(MissingCount(10, 0)) is None
+    assert signals.missing_share(MissingCount(100, 10)) == pytest.approx(0.9)
+    assert signals.missing_share(None) is None
+
+
+def test_a_run_folded_back_to_the_start_is_raised_and_proposed_where_it_continues():
+    walk = straight(12)
+    placed = walk[:7] + [(x - 7.0, y + 0.1, yaw) for x, y, yaw in walk[7:]]  # folded onto 0-4
+    result = triage(capture(walk, placed))
+    assert raised(result) == set(range(7, 12))
+    assert max(s.score for s in result.suspects if s.image_id - 1 < 7) < RAISE_SCORE
+    (run,) = result.runs
+    assert run.image_ids == [8, 9, 10, 11, 12]
+    for edit, truth in zip(run.proposal, walk[7:], strict=True):
+        assert np.hypot(edit.x - truth[0], edit.y - truth[1]) < 0.6
+        assert signals.turn_deg(edit.yaw_deg, truth[2]) < 20
+
+
+def test_a_right_capture_raises_nothing():
+    walk = straight(15)
+    result = triage(capture(walk, walk))
+    assert raised(result) == set() and result.runs == []
+
+
+def orbit(n=36, radius=3.0):
+    angles = np.radians(np.arange(n) * 360.0 / n)
+    return [(radius * np.cos(a), radius * np.sin(a), np.degrees(a) + 180.0) for a in angles]
+
+
+def test_an_orbit_keeps_the_stretch_across_its_seam_and_turns_the_folded_run_back():
+    ring = orbit()
+    turn = np.array([0.0, 0.0, np.radians(90.0)])  # a quarter turn about the pillar
+    placed = list(ring)
+    for i in range(10, 19):
+        x, y, yaw = poses2d.compose(turn, poses2d.pose(*ring[i]))
+        placed[i] = (x, y, np.degrees(yaw))
+    result = triage(capture(ring, placed))
+    assert raised(result) == set(range(10, 19))
+    (run,) = result.runs
+    errors = [np.hypot(e.x - ring[i][0], e.y - ring[i][1])
+              for e, i in zip(run.proposal, range(10, 19), strict=True)]
+    assert max(errors) < 0.3  # fitted between its two trusted neighbours
+
+
+def test_cameras_of_another_model_are_only_in_runs_and_placed_after_their_neighbours():
+    walk = straight(10)
+    registered = [True] * 6 + [False] * 4
+    groups = {i: {"x": 40.0 + i, "y": 7.0, "yaw_deg": walk[i][2]} for i in range(6, 10)}
+    result = triage(capture(walk, walk, registered, groups))
+    assert {s.image_id for s in result.suspects} == set(range(1, 7))
+    (run,) = result.runs
+    assert run.image_ids == [7, 8, 9, 10] and "model 1" in run.reason
+    assert [round(e.x) for e in run.proposal] == [6, 7, 8, 9]
+
+
+def test_continuing_a_circle_stays_on_it_and_a_rigid_fit_recovers_a_motion():
+    a, b = poses2d.pose(3, 0, 90), poses2d.pose(3 * np.cos(0.2), 3 * np.sin(0.2), 90 + np.degrees(0.2))
+    after = poses2d.continue_forward(a, b)
+    assert np.hypot(*after[:2]) == pytest.approx(3.0)
+    assert np.arctan2(after[1], after[0]) == pytest.approx(0.4)
+    motion = np.array([1.0, -2.0, 0.7])
+    source = np.array([poses2d.pose(0, 0, 0), poses2d.pose(2, 1, 30)])
+    assert poses2d.fit_rigid(source, poses2d.apply(motion, source), 1.0) == pytest.approx(motion)
