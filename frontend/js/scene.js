@@ -1,10 +1,11 @@
 // The top-down scene on a <canvas>: world<->screen transform, density of points, camera glyphs,
-// frustum triangles, match lines, comparison arrows and a scale bar. It draws what it is told:
-// the page forwards the store's "lines", "arrows", "display" and "view" events to it.
+// frustum triangles, match lines, comparison arrows, proposed poses (ghost cameras), split-off
+// models' rings, the path being drawn and a scale bar. It draws what it is told: the page forwards
+// the store's "lines", "arrows", "ghosts", "sketch", "display" and "view" events to it.
 import { DensityLayer } from "./density.js";
 import { median, viewExtent } from "./geometry.js";
-import { drawArrows, drawFrusta, drawGhostCameras, drawGlyphs, drawGroupOutlines, drawLabels, drawScaleBar,
-  drawSegments, drawSketch } from "./glyphs.js";
+import { drawArrows, drawFrusta, drawGlyphs, drawLabels, drawScaleBar, drawSegments } from "./glyphs.js";
+import { drawGroupOutlines, drawProposals, drawSketch, groupsOf } from "./overlays.js";
 const COLOURS = ["points", "camera", "moved", "unregistered", "flagged", "selected", "hovered",
   "match", "cut", "estimate", "arrow", "ghost", "frustum", "order", "group", "proposal", "sketch"];
 
@@ -186,8 +187,7 @@ export class SceneView {
       drawFrusta(ctx, t, dynamic, { fill: colours.selectedFaint, stroke: colours.selected, px });
     }
     this.drawGhosts(t, px);
-    this.drawProposals(t, px);
-    this.drawGroups(t, posed, px);
+    this.drawTriage(t, posed, px);
     this.drawLines(t, px);
     drawArrows(ctx, t, this.arrows, { colour: colours.arrow, px });
     this.drawCameras(ctx, t, dynamic, px);
@@ -297,26 +297,11 @@ export class SceneView {
     drawSegments(this.ctx, t, segments, { colour: this.colours.ghost, width: px, dash: [3 * px, 3 * px] });
   }
 
-  drawProposals(t, px) {
-    if (!this.ghosts.length) return;
-    const segments = [];
-    for (const g of this.ghosts) {
-      const cam = this.byId.get(g.id);
-      const now = cam && this.poseOf(cam);
-      if (now) segments.push([now.x, now.y, g.x, g.y]);
-    }
-    drawSegments(this.ctx, t, segments, { colour: this.colours.proposal, width: px, dash: [2 * px, 3 * px] });
-    drawGhostCameras(this.ctx, t, this.ghosts, { colour: this.colours.proposal, px });
-  }
-
-  // Split-off models: their cameras at their group poses (or where the draft moved them).
-  drawGroups(t, posed, px) {
-    const groups = new Map(); // model index -> poses
-    for (const [cam, pose] of posed) {
-      if (!cam.group) continue;
-      if (!groups.has(cam.model)) groups.set(cam.model, []);
-      groups.get(cam.model).push(pose);
-    }
+  // Proposed poses and the rings of split-off models (at their group poses or where moved).
+  drawTriage(t, posed, px) {
+    const nowOf = (id) => { const cam = this.byId.get(id); return cam ? this.poseOf(cam) : null; };
+    drawProposals(this.ctx, t, this.ghosts, nowOf, { colour: this.colours.proposal, px });
+    const groups = groupsOf(posed);
     drawGroupOutlines(this.ctx, t, groups, { colour: this.colours.group, px });
     this.canvas.dataset.groups = String(groups.size);
   }
