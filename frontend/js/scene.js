@@ -79,8 +79,10 @@ export class SceneView {
     this.requestDraw();
   }
 
-  // A command from the toolbar or the keys: fit, zoom about the centre, pan by a share of the view.
-  command({ fit, zoom, pan }) {
+  // A command from the toolbar or the keys: fit, zoom about the centre, pan by a share of the view;
+  // show: a world point, centred when it is off screen (e.g. a suspect picked in its panel).
+  command({ fit, zoom, pan, show }) {
+    if (show) this.bringIntoView(show);
     if (fit) this.fit();
     if (zoom) {
       const rect = this.canvas.getBoundingClientRect();
@@ -90,6 +92,15 @@ export class SceneView {
       const span = this.canvas.width / this.view.scale;
       this.panBy(pan[0] * span, pan[1] * span);
     }
+  }
+
+  bringIntoView([x, y]) {
+    const [sx, sy] = this.transform()(x, y);
+    const margin = 0.05 * Math.min(this.canvas.width, this.canvas.height);
+    const { width, height } = this.canvas;
+    if (sx > margin && sy > margin && sx < width - margin && sy < height - margin) return;
+    Object.assign(this.view, { cx: x, cy: y });
+    this.requestDraw();
   }
 
   resize() {

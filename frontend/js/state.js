@@ -10,6 +10,7 @@
 //   "arrows"     store.arrows: comparison arrows        (versions panel) -> scene
 //   "display"    store.showMatching / showFrusta / showOrder (controls) -> scene, preview
 //   "view"       a command for the scene: {fit} | {zoom} | {pan: [x, y]} (share of the view)
+//                | {show: [x, y]} (a world point, centred when off screen)
 //   "role"       store.role changed (a refusal showed the role is now viewer)     (sync.js)
 //   "triage"     store.triage: the version's suspects and runs arrived           (triage panel)
 //   "ghosts"     store.ghosts: proposed poses drawn as ghost cameras             (triage panel) -> scene

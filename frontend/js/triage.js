@@ -93,10 +93,13 @@ export class TriagePanel {
     return li;
   }
 
+  // Select the camera (alone) or its run, and bring the camera into view if it is off screen.
   select(id, alone) {
     const run = alone ? null : this.byRun.get(id);
     this.selection.set(run ? run.image_ids : [id], id);
     this.store.lastStepped = id;
+    const pose = this.editor.poseOf(this.store.byId.get(id));
+    if (pose) this.store.emit("view", { show: [pose.x, pose.y] });
   }
 
   runItem(run) {
