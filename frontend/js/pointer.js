@@ -24,11 +24,7 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
     const hit = view.hitTest(e.clientX, e.clientY);
     const toggle = e.ctrlKey || e.metaKey;
     if (hit !== null) {
-      const group = !toggle && !e.shiftKey && selection.groupOf(hit).length > 0;
-      if (group && !store.selection.has(hit)) selection.selectGroup(hit); // a split-off model as one piece
-      else if (!group && (toggle || e.shiftKey || !store.selection.has(hit))) {
-        selection.click(hit, { shift: e.shiftKey, toggle });
-      }
+      selectOnPress(hit, e, store, selection);
       const poses = store.editable && !toggle ? editor.selectedPoses() : [];
       gesture = { kind: poses.length ? "drag" : "none", start: view.toWorld(e.clientX, e.clientY),
         poses, key: `drag${(drags += 1)}` };
@@ -90,4 +86,16 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
     editor.place([id], x, y);
     selection.set([id], id);
   }, { signal });
+}
+
+// A press on camera `hit`: a plain one on a split-off model selects its whole group (it moves as
+// one piece), else it selects as a click does (shift extends, ctrl/cmd toggles); a press on the
+// selection keeps it, to drag it.
+function selectOnPress(hit, e, store, selection) {
+  const toggle = e.ctrlKey || e.metaKey;
+  const group = !toggle && !e.shiftKey && selection.groupOf(hit).length > 0;
+  if (group && !store.selection.has(hit)) selection.selectGroup(hit);
+  else if (!group && (toggle || e.shiftKey || !store.selection.has(hit))) {
+    selection.click(hit, { shift: e.shiftKey, toggle });
+  }
 }
