@@ -69,3 +69,15 @@ def test_one_round_repairs_the_orbit_for_either_user(tmp_path, seed):
         assert first["num_wrong"] >= 20, "plain COLMAP must fold the orbit"
         assert summary["fixed"] == first["num_wrong"] and summary["final_models"] == 1, user
         assert result["rounds"][1]["pruning"]["precision"] >= 0.95, user
+
+
+def test_a_user_who_only_accepts_proposals_fixes_the_fold(tmp_path):
+    result = run_demo(layout="tiny", rounds=1, out_dir=tmp_path, options=TINY_OPTIONS,
+                      user="proposals")
+    first, summary = result["rounds"][0], result["summary"]
+    assert first["num_wrong"] >= 3, "plain COLMAP must fold the tiny scene's far end"
+    assert summary["fixed"] == first["num_wrong"] and summary["final_models"] == 1
+    assert (summary["drags"], summary["key_presses"]) == (0, 0) and summary["accepts"] >= 1
+    assert summary["actions_per_fixed"] == pytest.approx(summary["accepts"] / summary["fixed"],
+                                                         abs=0.01)
+    assert result["rounds"][1]["actions"]["accepts"] == summary["accepts"]

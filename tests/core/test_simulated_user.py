@@ -43,3 +43,12 @@ def test_a_capture_shape_user_lays_the_orbit_evenly_in_capture_order():
     assert laid == pytest.approx(np.linspace(-90.0, 90.0, len(names)))
     inward = np.degrees(np.arctan2(-spots[:, 1], -spots[:, 0]))
     assert [e.yaw_deg for e in edits] == pytest.approx(inward)
+
+
+def test_rotation_keys_take_big_steps_then_small_ones():
+    from guided_sfm.core.simulated_user import key_presses_to_turn
+
+    assert key_presses_to_turn(0) == 0
+    assert key_presses_to_turn(-24) == 4  # two shift presses (20 deg), two plain ones (4 deg)
+    assert key_presses_to_turn(350) == 1  # the short way round: -10 deg
+    assert key_presses_to_turn(180) == 18

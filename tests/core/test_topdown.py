@@ -108,7 +108,9 @@ def test_synthetic_scene_matches_the_contract(synthetic, tmp_path):
     assert set(data) >= {"frame", "cameras", "points", "models"}
     assert set(data["frame"]) == {"origin", "x_axis", "y_axis", "up"}
     assert set(data["cameras"][0]) == {"image_id", "name", "seq", "registered", "model", "x", "y",
-                                       "yaw_deg", "fov_deg", "range", "center", "qvec"}
+                                       "yaw_deg", "fov_deg", "range", "center", "qvec",
+                                       "group_pose"}  # null in the largest model (v1.1)
+    assert all(c["group_pose"] is None for c in data["cameras"])
     assert [c["name"] for c in data["cameras"]] == sorted(name for _, name in images)
     assert len(data["points"]["xy"]) == 120
     frame = scene.frame

@@ -126,3 +126,13 @@ def test_continuing_a_circle_stays_on_it_and_a_rigid_fit_recovers_a_motion():
     motion = np.array([1.0, -2.0, 0.7])
     source = np.array([poses2d.pose(0, 0, 0), poses2d.pose(2, 1, 30)])
     assert poses2d.fit_rigid(source, poses2d.apply(motion, source), 1.0) == pytest.approx(motion)
+
+
+def test_a_model_no_pair_links_to_the_rest_gets_no_proposal():
+    walk = straight(10)
+    registered = [True] * 6 + [False] * 4
+    groups = {i: {"x": 40.0 + i, "y": 7.0, "yaw_deg": walk[i][2]} for i in range(6, 10)}
+    data = capture(walk, walk, registered, groups)
+    cut = {k: n for k, n in data.pairs.items() if (k[0] > 6) == (k[1] > 6)}
+    (run,) = triage(TriageInput(data.scene, cut, data.shared_points)).runs
+    assert run.image_ids == [7, 8, 9, 10] and run.proposal is None and "no verified pair" in run.reason

@@ -71,7 +71,8 @@ def triage(data: TriageInput) -> Triage:
                 for i, piece in enumerate(pieces) if piece.kind == PLACED for c in piece.cameras]
     suspects.sort(key=lambda s: (-s.score, s.image_id))
     scores = {s.image_id: s.score for s in suspects}
-    runs = [_run(pieces[i], placement.poses[i], pieces[placement.anchor]) for i in moved]
+    runs = [_run(pieces[i], placement.poses[i], pieces[placement.anchor], data.pairs)
+            for i in moved]
     runs.sort(key=lambda r: (-max(scores.get(i, 1.0) for i in r.image_ids), r.image_ids[0]))
     return Triage(suspects, runs)
 
@@ -87,19 +88,30 @@ def _capture_order(data: TriageInput) -> list:
     return cameras[start:] + cameras[:start]
 
 
-def _run(piece: Piece, poses: np.ndarray, anchor: Piece) -> Run:
+def _run(piece: Piece, poses: np.ndarray, anchor: Piece, pairs: dict) -> Run:
+    if piece.kind != PLACED and not _linked(piece, pairs):
+        # nothing in the matches says where it belongs: the user places it (a group move)
+        return Run(piece.image_ids, _run_reason(piece, anchor) + _UNLINKED, None)
     proposal = [CameraEdit(c.image_id, float(p[0]), float(p[1]),
                            float((np.degrees(p[2]) + 180.0) % 360.0 - 180.0))
                 for c, p in zip(piece.cameras, poses, strict=True)]
     return Run(piece.image_ids, _run_reason(piece, anchor), proposal)
 
 
+_UNLINKED = "; no verified pair links it to the other cameras, so nothing is proposed"
+
+
+def _linked(piece: Piece, pairs: dict) -> bool:
+    """True when a verified pair joins one of the piece's cameras to a camera outside it."""
+    own = set(piece.image_ids)
+    return any((a in own) != (b in own) for a, b in pairs)
+
+
 def _run_reason(piece: Piece, anchor: Piece) -> str:
     if piece.kind == GROUP:
-        return (f"{piece.names}: model {piece.cameras[0].model}, apart from the largest; "
-                "placed to continue the capture from its neighbours")
+        return f"{piece.names}: model {piece.cameras[0].model}, apart from the largest"
     if piece.kind == LOOSE:
-        return f"{piece.names}: in no model; placed to continue the capture from its neighbours"
+        return f"{piece.names}: in no model"
     return (f"{piece.names}: {len(piece.cameras)} cameras placed continuously but apart from "
             f"the capture's largest continuous stretch ({anchor.names}); moved to continue "
             "the trajectory of their neighbours with their own relative poses")
