@@ -142,9 +142,9 @@ function warnFarPlacements(box, store, draft, editor) {
   const far = [];
   for (const id of draft.cameras.keys()) {
     const cam = store.byId.get(id);
-    const pose = cam && editor.poseOf(cam);
+    const pose = cam && editor.editPose(cam);
     const partners = [...(store.pairs.get(id)?.keys() ?? [])].map((p) => store.byId.get(p)).filter(Boolean)
-      .map((c) => editor.poseOf(c)).filter(Boolean);
+      .map((c) => editor.editPose(c)).filter(Boolean);
     if (!pose || !partners.length) continue;
     const nearest = Math.min(...partners.map((p) => Math.hypot(p.x - pose.x, p.y - pose.y)));
     if (nearest > FAR_RANGES * editor.medianRange) far.push(`${cam.name} (${nearest.toPrecision(3)} units)`);

@@ -20,12 +20,33 @@ export class Editor {
     this.rotateStep = ROTATE_DEG;
   }
 
-  // The pose on screen: the draft's when moved, else the model's (null when not placed).
+  // The pose on screen: the draft's when moved, else the model's, else (a camera of a split-off
+  // model) its group pose; null when not placed.
   poseOf(cam) {
-    const edit = this.draft.cameras.get(cam.id);
+    const edit = this.draft.cameras.get(cam.id) ?? (cam.x === null ? cam.group : null);
     if (!edit) return cam.x === null ? null : cam;
     return { ...cam, ...edit, fov_deg: edit.fov_deg ?? cam.fov_deg ?? this.medianFov,
       range: edit.range ?? cam.range ?? this.medianRange };
+  }
+
+  // The pose the server's rule sees: the draft's or the model's (a group pose is only a proposal).
+  editPose(cam) {
+    return this.draft.cameras.has(cam.id) || cam.x !== null ? this.poseOf(cam) : null;
+  }
+
+  // Put poses (image id -> {x, y, yaw_deg}) into the draft as one undo step, each camera keeping
+  // its frustum; returns whether anything changed.
+  setPoses(poses, mergeKey = null) {
+    const known = [...poses].filter(([id]) => this.store.byId.has(id));
+    if (!this.canEdit() || !known.length) return false;
+    this.draft.change((d) => {
+      for (const [id, p] of known) {
+        const now = this.poseOf(this.store.byId.get(id));
+        d.cameras.set(id, { x: p.x, y: p.y, yaw_deg: p.yaw_deg,
+          fov_deg: now?.fov_deg ?? this.medianFov, range: now?.range ?? this.medianRange });
+      }
+    }, mergeKey);
+    return true;
   }
 
   canEdit() {

@@ -7,13 +7,24 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
   let gesture = null; // {kind: "pan"|"drag", x, y, moved, start}
   let drags = 0;
 
+  // A drawing tool (store.tool, e.g. the path tool) takes the pointer while it is active.
+  const toTool = (name, e) => {
+    if (!store.tool) return false;
+    store.tool[name]?.(view.toWorld(e.clientX, e.clientY), e, view.worldPerPixel());
+    return true;
+  };
+
   canvas.addEventListener("pointerdown", (e) => {
     if (e.button !== 0) return;
     canvas.focus();
+    if (toTool("down", e)) {
+      canvas.setPointerCapture(e.pointerId);
+      return;
+    }
     const hit = view.hitTest(e.clientX, e.clientY);
     const toggle = e.ctrlKey || e.metaKey;
     if (hit !== null) {
-      if (toggle || e.shiftKey || !store.selection.has(hit)) selection.click(hit, { shift: e.shiftKey, toggle });
+      selectOnPress(hit, e, store, selection);
       const poses = store.editable && !toggle ? editor.selectedPoses() : [];
       gesture = { kind: poses.length ? "drag" : "none", start: view.toWorld(e.clientX, e.clientY),
         poses, key: `drag${(drags += 1)}` };
@@ -25,6 +36,7 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
   }, { signal });
 
   canvas.addEventListener("pointermove", (e) => {
+    if (toTool("move", e)) return undefined;
     if (!gesture) return hover(e);
     const here = view.toWorld(e.clientX, e.clientY);
     if (gesture.kind === "pan") {
@@ -41,7 +53,8 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
     if (gesture?.kind === "pan" && !gesture.moved && gesture.clear) selection.clear();
     gesture = null;
   };
-  canvas.addEventListener("pointerup", end, { signal });
+  canvas.addEventListener("pointerup", (e) => { if (!toTool("up", e)) end(); }, { signal });
+  canvas.addEventListener("dblclick", (e) => toTool("dblclick", e), { signal });
   canvas.addEventListener("pointercancel", end, { signal });
   canvas.addEventListener("pointerleave", () => setHover(null), { signal });
 
@@ -73,4 +86,16 @@ export function bindPointer(canvas, { store, view, editor, selection }, signal) 
     editor.place([id], x, y);
     selection.set([id], id);
   }, { signal });
+}
+
+// A press on camera `hit`: a plain one on a split-off model selects its whole group (it moves as
+// one piece), else it selects as a click does (shift extends, ctrl/cmd toggles); a press on the
+// selection keeps it, to drag it.
+function selectOnPress(hit, e, store, selection) {
+  const toggle = e.ctrlKey || e.metaKey;
+  const group = !toggle && !e.shiftKey && selection.groupOf(hit).length > 0;
+  if (group && !store.selection.has(hit)) selection.selectGroup(hit);
+  else if (!group && (toggle || e.shiftKey || !store.selection.has(hit))) {
+    selection.click(hit, { shift: e.shiftKey, toggle });
+  }
 }

@@ -23,11 +23,11 @@ export class Preview {
     const { store, draft, editor } = this;
     const cuts = new Set(draft.deletePairs);
     for (const id of draft.cameras.keys()) {
-      const a = editor.poseOf(store.byId.get(id));
+      const a = editor.editPose(store.byId.get(id));
       if (!a) continue;
       const triangle = frustum(a);
       for (const partner of store.pairs.get(id)?.keys() ?? []) {
-        const b = editor.poseOf(store.byId.get(partner));
+        const b = editor.editPose(store.byId.get(partner));
         if (b?.fov_deg && b.range && !trianglesIntersect(triangle, frustum(b))) cuts.add(pairKey(id, partner));
       }
     }

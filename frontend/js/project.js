@@ -10,12 +10,14 @@ import { MatchesPanel } from "./matches.js";
 import { MembersPanel } from "./members.js";
 import { bindPointer } from "./pointer.js";
 import { Preview } from "./preview.js";
+import { PathTool } from "./pathtool.js";
 import { SceneView } from "./scene.js";
 import { Selection } from "./selection.js";
 import { adjacency, camerasOf, createStore, pointsOf } from "./state.js";
 import { Strip } from "./strip.js";
 import { DraftSync } from "./sync.js";
 import { TeamPanel } from "./team.js";
+import { TriagePanel } from "./triage.js";
 import { View3D } from "./view3d.js";
 import { bindControls } from "./controls.js";
 import { UploadPanel } from "./upload.js";
@@ -105,6 +107,9 @@ export class ProjectPage {
     this.strip = new Strip(this.root.querySelector("#strip"), ctx, signal);
     this.preview = new Preview(this.root.querySelector("#preview-panel"), ctx);
     this.matches = new MatchesPanel(this.root.querySelector("#matching-panel"), ctx, signal);
+    this.triage = new TriagePanel(this.root.querySelector("#triage-panel"), ctx, signal);
+    this.triage.load(); // in the background: the page does not wait for the suspects
+    this.pathTool = new PathTool(this.root.querySelector("#path-panel"), ctx, signal);
     if (store.version) {
       this.versions = new VersionsPanel(this.root.querySelector("#versions-panel"),
         { ...ctx, onRestored: () => this.reopen() }, signal);
@@ -140,6 +145,8 @@ export class ProjectPage {
     view.poseOf = (cam) => editor.poseOf(cam);
     view.setLines([]);
     view.setArrows([]);
+    view.setGhosts([]);
+    view.setSketch(null);
     store.showFrusta = view.showFrusta; // the display toggles outlive the page, like the view
     store.showOrder = view.showOrder;
     store.metresPerUnit = Number(localStorage.getItem(`gsfm.scale.${store.project.id}`)) || null;
@@ -148,6 +155,8 @@ export class ProjectPage {
     store.on("hover", () => { view.hovered = store.hovered; view.requestDraw(); });
     store.on("lines", (lines) => view.setLines(lines));
     store.on("arrows", (arrows) => view.setArrows(arrows));
+    store.on("ghosts", (ghosts) => view.setGhosts(ghosts));
+    store.on("sketch", (sketch) => view.setSketch(sketch));
     store.on("display", () => {
       Object.assign(view, { showFrusta: store.showFrusta, showOrder: store.showOrder,
         metresPerUnit: store.metresPerUnit });
@@ -165,6 +174,7 @@ export class ProjectPage {
     this.preview.refresh();
     this.matches.render();
     this.controls?.refresh();
+    this.pathTool?.refresh();
     const canvas = view.canvas;
     canvas.dataset.selected = [...store.selection].join(",");
     canvas.dataset.moved = [...draft.cameras.keys()].join(",");
@@ -236,6 +246,7 @@ export class ProjectPage {
     this.store.locked = locked;
     this.root.dataset.locked = String(locked);
     this.showBanner(job ? `Editing is locked while job ${job.id} (${job.kind}) runs.` : null);
+    this.triage?.update();
     this.refresh();
   }
 

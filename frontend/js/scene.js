@@ -1,11 +1,13 @@
 // The top-down scene on a <canvas>: world<->screen transform, density of points, camera glyphs,
-// frustum triangles, match lines, comparison arrows and a scale bar. It draws what it is told:
-// the page forwards the store's "lines", "arrows", "display" and "view" events to it.
+// frustum triangles, match lines, comparison arrows, proposed poses (ghost cameras), split-off
+// models' rings, the path being drawn and a scale bar. It draws what it is told: the page forwards
+// the store's "lines", "arrows", "ghosts", "sketch", "display" and "view" events to it.
 import { DensityLayer } from "./density.js";
 import { median, viewExtent } from "./geometry.js";
 import { drawArrows, drawFrusta, drawGlyphs, drawLabels, drawScaleBar, drawSegments } from "./glyphs.js";
+import { drawGroupOutlines, drawProposals, drawSketch, groupsOf } from "./overlays.js";
 const COLOURS = ["points", "camera", "moved", "unregistered", "flagged", "selected", "hovered",
-  "match", "cut", "estimate", "arrow", "ghost", "frustum", "order"];
+  "match", "cut", "estimate", "arrow", "ghost", "frustum", "order", "group", "proposal", "sketch"];
 
 export class SceneView {
   constructor(canvas) {
@@ -17,6 +19,7 @@ export class SceneView {
     this.points = new Float32Array(0);
     this.poseOf = modelPose;
     this.base = new Map(); // image id -> model pose, for ghosts of moved cameras
+    this.byId = new Map();
     this.selected = new Set();
     this.moved = new Set();
     this.flagged = new Set();
@@ -26,6 +29,8 @@ export class SceneView {
     this.metresPerUnit = null; // set from a known distance: the scale bar then speaks metres
     this.lines = []; // [{a, b, kind: "match"|"cut"|"estimate", weight}]
     this.arrows = []; // [{from: [x, y], to: [x, y]}]
+    this.ghosts = []; // [{id, x, y, yaw_deg, hot}]: proposed poses
+    this.sketch = null; // the path being drawn
     this.colours = readColours(canvas);
     this.frame = 0;
     this.generation = 0; // bump to force the static layer to redraw (e.g. new colours)
@@ -44,6 +49,7 @@ export class SceneView {
     this.cameras = cameras;
     this.points = points;
     this.base = new Map(cameras.filter((c) => c.x !== null).map((c) => [c.id, c]));
+    this.byId = new Map(cameras.map((c) => [c.id, c]));
   }
 
   // Match lines; the estimate's and the server's cut lines are the red ones.
@@ -54,14 +60,29 @@ export class SceneView {
     this.requestDraw();
   }
 
+  // Proposed poses (ghost cameras), each joined by a dashed line to where its camera is now.
+  setGhosts(ghosts) {
+    this.ghosts = ghosts;
+    this.canvas.dataset.ghosts = String(ghosts.length);
+    this.requestDraw();
+  }
+
+  setSketch(sketch) {
+    this.sketch = sketch;
+    this.canvas.dataset.sketch = sketch?.kind ?? "";
+    this.requestDraw();
+  }
+
   setArrows(arrows) {
     this.arrows = arrows;
     this.canvas.dataset.arrows = String(arrows.length);
     this.requestDraw();
   }
 
-  // A command from the toolbar or the keys: fit, zoom about the centre, pan by a share of the view.
-  command({ fit, zoom, pan }) {
+  // A command from the toolbar or the keys: fit, zoom about the centre, pan by a share of the view;
+  // show: a world point, centred when it is off screen (e.g. a suspect picked in its panel).
+  command({ fit, zoom, pan, show }) {
+    if (show) this.bringIntoView(show);
     if (fit) this.fit();
     if (zoom) {
       const rect = this.canvas.getBoundingClientRect();
@@ -71,6 +92,15 @@ export class SceneView {
       const span = this.canvas.width / this.view.scale;
       this.panBy(pan[0] * span, pan[1] * span);
     }
+  }
+
+  bringIntoView([x, y]) {
+    const [sx, sy] = this.transform()(x, y);
+    const margin = 0.05 * Math.min(this.canvas.width, this.canvas.height);
+    const { width, height } = this.canvas;
+    if (sx > margin && sy > margin && sx < width - margin && sy < height - margin) return;
+    Object.assign(this.view, { cx: x, cy: y });
+    this.requestDraw();
   }
 
   resize() {
@@ -105,6 +135,11 @@ export class SceneView {
     const { cx, cy, scale } = this.view;
     return [cx + ((clientX - rect.left) * dpr - this.canvas.width / 2) / scale,
       cy - ((clientY - rect.top) * dpr - this.canvas.height / 2) / scale];
+  }
+
+  // World units per CSS pixel at the current zoom.
+  worldPerPixel() {
+    return this.canvas.width / this.canvas.getBoundingClientRect().width / this.view.scale;
   }
 
   panBy(dxWorld, dyWorld) {
@@ -163,12 +198,14 @@ export class SceneView {
       drawFrusta(ctx, t, dynamic, { fill: colours.selectedFaint, stroke: colours.selected, px });
     }
     this.drawGhosts(t, px);
+    this.drawTriage(t, posed, px);
     this.drawLines(t, px);
     drawArrows(ctx, t, this.arrows, { colour: colours.arrow, px });
     this.drawCameras(ctx, t, dynamic, px);
     this.drawHoverRing(t, posed, px);
     this.drawOrderLabels(t, ordered, px);
     if (posed.length || this.points.length) this.drawScale(px);
+    if (this.sketch) drawSketch(ctx, t, this.sketch, { colour: colours.sketch, px });
     this.overlay?.(ctx, t, px); // e.g. comment pins, drawn by their panel
     this.frame += 1;
     Object.assign(canvas.dataset, { frame: String(this.frame), hovered: String(this.hovered ?? ""),
@@ -271,6 +308,15 @@ export class SceneView {
     drawSegments(this.ctx, t, segments, { colour: this.colours.ghost, width: px, dash: [3 * px, 3 * px] });
   }
 
+  // Proposed poses and the rings of split-off models (at their group poses or where moved).
+  drawTriage(t, posed, px) {
+    const nowOf = (id) => { const cam = this.byId.get(id); return cam ? this.poseOf(cam) : null; };
+    drawProposals(this.ctx, t, this.ghosts, nowOf, { colour: this.colours.proposal, px });
+    const groups = groupsOf(posed);
+    drawGroupOutlines(this.ctx, t, groups, { colour: this.colours.group, px });
+    this.canvas.dataset.groups = String(groups.size);
+  }
+
   drawLines(t, px) {
     if (!this.lines.length) return;
     const byId = new Map();
@@ -301,6 +347,7 @@ export class SceneView {
     if (this.selected.has(cam.id)) return "selected";
     if (cam.id === this.hovered) return "hovered";
     if (this.flagged.has(cam.id)) return "flagged";
+    if (cam.group) return "group";
     if (!cam.registered) return "unregistered";
     return this.moved.has(cam.id) ? "moved" : "camera";
   }
@@ -317,8 +364,9 @@ export class SceneView {
   }
 }
 
-const modelPose = (cam) => (cam.x === null ? null : cam);
-const CATEGORIES = ["camera", "unregistered", "moved", "flagged", "selected", "hovered"];
+// Before an editor is attached: the model's pose, else a split-off model's group pose.
+const modelPose = (cam) => (cam.x !== null ? cam : cam.group && { ...cam, ...cam.group });
+const CATEGORIES = ["camera", "unregistered", "group", "moved", "flagged", "selected", "hovered"];
 const LINE_ORDER = ["match", "estimate", "cut"];
 
 function sameKey(a, b) {

@@ -36,6 +36,21 @@ export class Selection {
     return this.ordered.filter((c) => c.seq >= lo && c.seq <= hi).map((c) => c.id);
   }
 
+  // The cameras of the split-off model `id` belongs to (drawn at their group pose, moved as one
+  // piece); empty for a camera of the largest model.
+  groupOf(id) {
+    const cam = this.store.byId.get(id);
+    if (!cam?.group || cam.model === null) return [];
+    return this.ordered.filter((c) => c.group && c.model === cam.model).map((c) => c.id);
+  }
+
+  selectGroup(id) {
+    const ids = this.groupOf(id);
+    if (!ids.length) return;
+    this.set(ids, id);
+    this.store.lastStepped = id;
+  }
+
   all() { this.set(this.ordered.map((c) => c.id)); }
   clear() { this.set([], null); }
 

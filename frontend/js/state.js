@@ -10,7 +10,11 @@
 //   "arrows"     store.arrows: comparison arrows        (versions panel) -> scene
 //   "display"    store.showMatching / showFrusta / showOrder (controls) -> scene, preview
 //   "view"       a command for the scene: {fit} | {zoom} | {pan: [x, y]} (share of the view)
+//                | {show: [x, y]} (a world point, centred when off screen)
 //   "role"       store.role changed (a refusal showed the role is now viewer)     (sync.js)
+//   "triage"     store.triage: the version's suspects and runs arrived           (triage panel)
+//   "ghosts"     store.ghosts: proposed poses drawn as ghost cameras             (triage panel) -> scene
+//   "sketch"     store.sketch: the path being drawn                              (path tool) -> scene
 
 // The drag-and-drop type of an image dragged from the strip onto the scene.
 export const DRAG_IMAGE = "application/x-gsfm-image";
@@ -41,6 +45,10 @@ export function createStore() {
     previewState: "none", // none | stale | ready
     lines: [], // [{a, b, kind: "match"|"cut"|"estimate", weight}]
     arrows: [], // [{id, from: [x, y], to: [x, y]}]
+    triage: null, // GET .../suspects: {suspects, runs}
+    ghosts: [], // [{id, x, y, yaw_deg, run, hot}]: proposed poses, not yet in the draft
+    sketch: null, // {kind: "polyline", points, cursor} | {kind: "circle", centre, radius}
+    tool: null, // a drawing tool that takes the scene's pointer and Enter/Escape while active
     on(name, handler) { events.addEventListener(name, (e) => handler(e.detail)); },
     emit(name, detail) { events.dispatchEvent(new CustomEvent(name, { detail })); },
     set(name, value) { this[name] = value; this.emit(name, value); },
@@ -57,6 +65,7 @@ export function camerasOf(scene) {
     id: c.image_id, name: c.name, seq: c.seq, registered: c.registered,
     x: c.x ?? null, y: c.y ?? null, yaw_deg: c.yaw_deg ?? null,
     fov_deg: c.fov_deg ?? null, range: c.range ?? null, center: c.center ?? null,
+    model: c.model ?? null, group: c.group_pose ?? null, // group: a split-off model's proposed pose
   }));
 }
 

@@ -117,9 +117,16 @@ def stop(process: subprocess.Popen) -> None:
         process.wait(timeout=10)
 
 
+# A data dir to keep between runs (opt-in): `serve --sample` reuses its sample project, so a rerun
+# starts in seconds instead of reconstructing the sample again. Unset: a fresh temporary one.
+REUSE_DATA_DIR = "GUIDED_SFM_E2E_DATA_DIR"
+
+
 @pytest.fixture(scope="session")
 def server(tmp_path_factory) -> Iterator[Server]:
-    data_dir = tmp_path_factory.mktemp("gsfm-e2e")
+    kept = os.environ.get(REUSE_DATA_DIR)
+    data_dir = Path(kept) if kept else tmp_path_factory.mktemp("gsfm-e2e")
+    data_dir.mkdir(parents=True, exist_ok=True)
     log = data_dir / "serve.log"
     command = [str(Path(sys.executable).with_name("guided-sfm")), "serve", "--data-dir", str(data_dir),
                "--port", str(free_port()), "--sample"]

@@ -67,6 +67,7 @@ class FakeApi:
         self.lose_next_upload = False  # store the next upload, then answer 502 (a lost answer)
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
+        self.suspects: dict = {"suspects": [], "runs": []}
         self.log: list[tuple[str, str]] = []
 
     def install(self, page) -> None:
@@ -124,6 +125,8 @@ class FakeApi:
             return 200, {"frame": frame, "cameras": self.cameras_of(version_of(path)),
                          "models": [{"index": 0, "num_images": 5}],
                          "points": {"xy": self.points}}
+        if path.endswith("/suspects"):  # triage (v1.1): set `suspects` to raise some
+            return 200, self.suspects
         if path.endswith("/compare"):
             to = int(parse_qs(urlsplit(request.url).query)["to"][0])
             return 200, {"cameras": self.compare_answer or self.compare(version_of(path), to)}

@@ -39,7 +39,7 @@ def calls() -> list[tuple[str, str, dict | None, dict]]:
         ("GET", p + "/versions/2/compare?to=1", None, {}), ("POST", p + "/edits", EDIT, {}),
         ("GET", p + "/edits", None, {}), ("GET", p + "/edits/1", None, {}),
         ("PUT", p + "/edits/1", EDIT, {"if-match": '"1"'}), ("PUT", p + "/edits/1", EDIT, {"if-match": "1"}),
-        ("GET", p + "/edits/1/preview", None, {}),
+        ("GET", p + "/edits/1/preview", None, {}), ("GET", p + "/versions/2/suspects", None, {}),
     ]
 
 
@@ -86,3 +86,16 @@ def test_every_fake_answer_matches_the_real_schema(openapi):
 def test_the_fake_thumbnail_route_exists_for_real(openapi):
     op = operation(openapi, "GET", "/projects/1/images/3/thumbnail")
     assert "200" in op["responses"]
+
+
+def test_the_triage_answers_of_the_offline_tests_match_the_real_schema(openapi):
+    """The hand-made suspects, runs and proposals test_triage_offline serves are real answers' shapes."""
+    from tests.e2e.test_triage_offline import TRIAGE
+
+    fake = FakeApi(head=2)
+    fake.suspects = TRIAGE
+    path = "/projects/1/versions/2/suspects"
+    status, answer = fake.answer("GET", path, FakeRequest("GET", ORIGIN + "/api/v1" + path))
+    schema = response_schema(openapi, operation(openapi, "GET", path), status)
+    errors = [e.message for e in jsonschema_rs.validator_for(schema).iter_errors(answer)]
+    assert status == 200 and not errors, errors[:3]
