@@ -14,8 +14,10 @@ CACHE=${GUIDED_SFM_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/guided-sfm}/podman
 PROJECT=guided-sfm
 PORT=${GUIDED_SFM_PORT:-8000}
 S3_PORT=${GUIDED_SFM_S3_PORT:-9000}
-DATABASE=${GUIDED_SFM_LOCAL_DATABASE:-guided_sfm_compose}
-BROKER_URL=${GUIDED_SFM_LOCAL_BROKER_URL:-redis://127.0.0.1:6379/11}
+# This machine's share of its Postgres and Redis (the environment may override it).
+set -a && . "$HERE/local.env" && set +a
+DATABASE=$GUIDED_SFM_LOCAL_DATABASE
+BROKER_URL=$GUIDED_SFM_LOCAL_BROKER_URL
 PG_URL=postgresql+psycopg://postgres@127.0.0.1:5432/$DATABASE
 BASE=localhost/guided-sfm-base:bookworm
 APP=localhost/guided-sfm:latest
