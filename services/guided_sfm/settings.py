@@ -49,6 +49,8 @@ class Settings:
     orphan_grace_seconds: float = 600.0  # files without rows this old are removed (reconcile)
     job_base_seconds: float = 3600.0  # a job's time limit: this much ...
     job_seconds_per_image: float = 60.0  # ... plus this per image of its project
+    artifacts_url: str = ""  # s3://BUCKET/PREFIX: the S3 store; empty: the data dir (design.md v1.1)
+    s3_endpoint_url: str = ""  # an S3-compatible server's URL (MinIO, moto); empty: AWS
 
     @classmethod
     def from_env(cls, environ: Mapping[str, str] | None = None, **overrides: object) -> Settings:
@@ -64,6 +66,8 @@ class Settings:
             "webhook_allow_private": _bool(env, "WEBHOOK_ALLOW_PRIVATE", False),
             "secret_key": env.get(PREFIX + "SECRET_KEY") or None,
             "trusted_proxies": env.get(PREFIX + "TRUSTED_PROXIES") or "",
+            "artifacts_url": env.get(PREFIX + "ARTIFACTS_URL") or "",
+            "s3_endpoint_url": env.get(PREFIX + "S3_ENDPOINT_URL") or "",
             **{name: _number(env, name.upper(), default) for name, default in _numeric_defaults()},
         }
         values.update(overrides)
@@ -81,6 +85,8 @@ class Settings:
         if min(self.threads, self.max_upload_mb, self.max_image_mpx) < 1:
             raise SettingsError(
                 f"{PREFIX}THREADS, {PREFIX}MAX_UPLOAD_MB and {PREFIX}MAX_IMAGE_MPX must be >= 1")
+        if self.artifacts_url:
+            _check_artifacts_url(self.artifacts_url)
         if self.secret_key is not None and len(self.secret_key) < 16:
             raise SettingsError(f"{PREFIX}SECRET_KEY must be at least 16 characters")
 
@@ -117,6 +123,13 @@ class Settings:
             with os.fdopen(fd, "w") as handle:
                 handle.write(secrets.token_urlsafe(48))
         return replace(self, secret_key=path.read_text().strip())
+
+
+def _check_artifacts_url(url: str) -> None:
+    parts = urlsplit(url)
+    if parts.scheme != "s3" or not parts.netloc:
+        raise SettingsError(f"{PREFIX}ARTIFACTS_URL must be s3://BUCKET/PREFIX (or unset for the data dir), "
+                            f"got {url!r}")
 
 
 def _numeric_defaults() -> list[tuple[str, int | float]]:

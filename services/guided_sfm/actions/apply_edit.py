@@ -21,7 +21,9 @@ def run(context: JobContext, work: Path) -> Produced:
         base = session.get(Version, job.base_version_id)
         if base is None:
             raise MissingWorkspace(f"the base version {job.base_version_id} no longer exists")
-        base_ws = Workspace(context.store.version_dir(base.path))
+        base_path = base.path
+    base_ws = Workspace(context.checkout(base_path))  # outside the session: a fetch may take a while
+    with session_scope(context.sessions) as session:
         ids = IdMap.load(session, job.project_id, base_ws)
     edits = parse_edits(ids.edits_body(body), base_ws.image_ids())
     context.progress("prune", 0.0)
@@ -29,7 +31,8 @@ def run(context: JobContext, work: Path) -> Produced:
     outcome = base_ws.prune(edits, new)
     mapped, checked = None, []
     if remap:  # warm from the base model unless its guard falls back to a cold re-map; checked
-        mapped, checked = checked_round.map_checked(new, edits, context.run(), context.images_dir())
+        images = context.images_dir(base_ws.image_ids())
+        mapped, checked = checked_round.map_checked(new, edits, context.run(), images)
     reasons = ids.pairs_with([*((pair, outcome.reasons.get(pair, ())) for pair in outcome.deleted),
                               *((pair, (checked_round.CHECK,)) for pair in checked)])
     deleted = [(a, b, tests) for (a, b), tests in reasons]
@@ -38,4 +41,5 @@ def run(context: JobContext, work: Path) -> Produced:
                + (f"; {mapped.message()}" if mapped else ", not mapped again"))
     if job.params.get("message"):  # the author's words first, then what was done
         message = f"{job.params['message']} ({message})"
-    return Produced(work, "apply", message, base.id, new.stats(), edits=body, deleted_pairs=deleted)
+    return Produced(work, "apply", message, job.base_version_id, new.stats(), edits=body,
+                    deleted_pairs=deleted, reuse_from=(base_path,))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -12,7 +13,7 @@ from guided_sfm.core.sfm import CancelToken, RunContext, SfmOptions
 from guided_sfm.core.types import Progress
 from guided_sfm.db.models import Job
 from guided_sfm.settings import Settings
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store
 
 SFM_PARAMS = ("camera_model", "matcher", "mapper")
 
@@ -20,11 +21,12 @@ SFM_PARAMS = ("camera_model", "matcher", "mapper")
 @dataclass(frozen=True)
 class JobContext:
     settings: Settings
-    store: ArtifactStore
+    store: Store
     sessions: sessionmaker[Session]
     job: Job  # a detached snapshot of the row as it was claimed
     progress: Progress
     cancel: CancelToken
+    scratch: Path  # the job's own dir: its inputs are fetched here, its output staged; emptied after
 
     def options(self) -> SfmOptions:
         """The job's SfM options over the defaults, with the configured thread count."""
@@ -35,8 +37,13 @@ class JobContext:
         """The job's options, progress reports and cancellation, as the core's steps take them."""
         return RunContext(self.options(), self.progress, self.cancel)
 
-    def images_dir(self) -> Path:
-        return self.store.images_dir(self.job.project_id)
+    def images_dir(self, names: Iterable[str]) -> Path:
+        """A folder holding these images of the project (fetched into the scratch dir if need be)."""
+        return self.store.images_for(self.job.project_id, names, self.scratch)
+
+    def checkout(self, version: str) -> Path:
+        """A published version's workspace to read (fetched into the scratch dir if need be)."""
+        return self.store.checkout(version, self.scratch)
 
 
 @dataclass
@@ -60,4 +67,5 @@ class Produced:
     deleted_pairs: list[tuple[int, int, tuple[str, ...]]] = field(default_factory=list)  # REST ids
     new_images: list[NewImage] = field(default_factory=list)  # import: files in `images_from`
     images_from: Path | None = None
+    reuse_from: tuple[str, ...] = ()  # published versions whose unchanged files the new one may share
     timings: dict[str, Any] | None = None  # StageClock.report() of the job, stored on its row

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import BinaryIO
 
@@ -12,14 +11,14 @@ from sqlalchemy.orm import Session
 
 from guided_sfm.actions import uploads
 from guided_sfm.actions.context import NewImage
-from guided_sfm.core.workspace import Workspace
+from guided_sfm.core.workspace import DATABASE, Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Image, Project
 from guided_sfm.errors import Conflict
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Blob, Store, image_key, thumb_key
 
 
-def upload(session: Session, store: ArtifactStore, project: Project,
+def upload(session: Session, store: Store, project: Project,
            files: list[tuple[str, BinaryIO]], limit: int, max_mpx: int | None = None) -> list[Image]:
     """Check every uploaded file (and make its thumbnail) in staging with no transaction open, then
     store them all (or none) in one short write transaction."""
@@ -33,28 +32,34 @@ def upload(session: Session, store: ArtifactStore, project: Project,
             session.commit()
         except BaseException:
             session.rollback()
-            for path in revealed:
-                path.unlink(missing_ok=True)
+            for key in revealed:
+                store.remove(key)
             raise
     return rows
 
 
-def delete(session: Session, store: ArtifactStore, image: Image) -> None:
+def delete(session: Session, store: Store, image: Image) -> None:
     """Remove an image no version uses (row, file, thumbnail); Conflict naming the versions that do."""
     if queries.active_job(session, image.project_id) is not None:
         raise Conflict(f"a job of project {image.project_id} is queued or running; delete images after it")
     users = [f"v{v.id}" for v in queries.versions(session, image.project_id)
-             if image.name in Workspace(store.version_dir(v.path)).image_ids()]
+             if image.name in _image_names(store, v.path)]
     if users:
         raise Conflict(f"image {image.name} is used by version(s) {', '.join(users)}; "
                        "only an image no version uses can be deleted")
-    project_id, name, thumb = image.project_id, image.name, store.thumbnail(image.project_id, image.id)
+    keys = [image_key(image.project_id, image.name), thumb_key(image.project_id, image.id)]
+    project_id = image.project_id
     session.delete(image)
     session.flush()
     renumber(session, project_id)
     session.commit()
-    store.image_file(project_id, name).unlink(missing_ok=True)
-    thumb.unlink(missing_ok=True)
+    for key in keys:
+        store.remove(key)
+
+
+def _image_names(store: Store, version: str) -> set[str]:
+    with store.reading(version, only=(DATABASE,)) as root:
+        return set(Workspace(root).image_ids())
 
 
 def _insert(session: Session, project_id: int, checked: list[NewImage]) -> list[Image]:
@@ -79,23 +84,21 @@ def _insert(session: Session, project_id: int, checked: list[NewImage]) -> list[
     return rows
 
 
-def _reveal(store: ArtifactStore, project_id: int, staging: Path, rows: list[Image]) -> list[Path]:
-    """Put the staged files in place. The rows are flushed, so a file already there under one of
-    these names has no row: an orphan of a crashed upload, replaced (the reconciler removes the
-    others)."""
+def _reveal(store: Store, project_id: int, staging: Path, rows: list[Image]) -> list[str]:
+    """Put the staged files in the store; their keys. The rows are flushed, so a file already there
+    under one of these names has no row: an orphan of a crashed upload, replaced (the reconciler
+    removes the others)."""
     revealed = []
     try:
         for row in rows:
-            target, thumb = store.image_file(project_id, row.name), store.thumbnail(project_id, row.id)
-            for folder in (target.parent, thumb.parent):
-                folder.mkdir(parents=True, exist_ok=True)
-            os.replace(staging / uploads.THUMBS / row.name, thumb)
+            thumb, target = thumb_key(project_id, row.id), image_key(project_id, row.name)
+            store.put(thumb, staging / uploads.THUMBS / row.name)
             revealed.append(thumb)
-            os.replace(staging / row.name, target)
+            store.put(target, staging / row.name)
             revealed.append(target)
     except BaseException:
-        for path in revealed:
-            path.unlink(missing_ok=True)
+        for key in revealed:
+            store.remove(key)
         raise
     return revealed
 
@@ -116,9 +119,16 @@ def make_thumbnail(source: Path, target: Path) -> None:
         uploads.save_thumbnail(img, target)
 
 
-def thumbnail(store: ArtifactStore, image: Image) -> Path:
+def thumbnail(store: Store, image: Image) -> Blob:
     """The image's thumbnail, made again if it is missing (e.g. after an import)."""
-    path = store.thumbnail(image.project_id, image.id)
-    if not path.is_file():
-        make_thumbnail(store.image_file(image.project_id, image.name), path)
-    return path
+    key = thumb_key(image.project_id, image.id)
+    if not store.exists(key):
+        with store.staging(image.project_id, prefix="thumb-") as scratch:
+            store.fetch(image_key(image.project_id, image.name), scratch / "image")
+            make_thumbnail(scratch / "image", scratch / "thumb.jpg")
+            store.put(key, scratch / "thumb.jpg")
+    return store.blob(key)
+
+
+def original(store: Store, image: Image) -> Blob:
+    return store.blob(image_key(image.project_id, image.name))

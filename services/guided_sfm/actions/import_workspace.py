@@ -18,12 +18,12 @@ from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Job, Project
 from guided_sfm.errors import BadUpload, Conflict
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store, upload_key
 
 REQUIRED = ("database.db", "sparse/0/")
 
 
-def queue(session: Session, store: ArtifactStore, submit: Callable[[int], None], project: Project,
+def queue(session: Session, store: Store, submit: Callable[[int], None], project: Project,
           user_id: int, upload: BinaryIO, limit: int) -> Job:
     """Keep a checked workspace zip in the project and queue its import; 409 unless the project is
     empty and idle (checked before the upload is written, and again where the job is queued)."""
@@ -32,10 +32,9 @@ def queue(session: Session, store: ArtifactStore, submit: Callable[[int], None],
     kept = _keep(store, project.id, upload, limit)
     try:
         _check_idle(session, project.id)
-        params = {"upload": str(kept.relative_to(store.root))}
-        return jobs.queue(session, submit, project, "import", user_id, params, None)
+        return jobs.queue(session, submit, project, "import", user_id, {"upload": kept}, None)
     except BaseException:
-        kept.unlink(missing_ok=True)
+        store.remove(kept)
         raise
 
 
@@ -46,14 +45,15 @@ def _check_idle(session: Session, project_id: int) -> None:
         raise Conflict(f"project {project_id} already has a queued or running job")
 
 
-def _keep(store: ArtifactStore, project_id: int, upload: BinaryIO, limit: int) -> Path:
-    """The upload, copied within the limit and checked in staging, then moved among the uploads."""
+def _keep(store: Store, project_id: int, upload: BinaryIO, limit: int) -> str:
+    """The upload, copied within the limit and checked in staging, then stored among the uploads;
+    its key."""
     with store.staging(project_id, prefix="import-") as staging:
         staged = staging / "workspace.zip"
         uploads.copy_limited(upload, staged, uploads.Budget(limit), "file")
         _check_archive(staged, limit)
-        kept = store.uploads_dir(project_id) / f"{staging.name}.zip"
-        staged.replace(kept)
+        kept = upload_key(project_id, staging.name)
+        store.put(kept, staged)
     return kept
 
 
@@ -82,14 +82,17 @@ def _common_root(paths: list[PurePosixPath]) -> tuple[str, ...]:
 
 
 def run(context: JobContext, work: Path) -> Produced:
-    upload = context.store.root / context.job.params["upload"]
+    key, upload = context.job.params["upload"], context.scratch / "upload.zip"
     try:
+        context.store.fetch(key, upload)
         images = _extract(upload, work, context.settings.max_upload_bytes, context.settings.max_image_mpx)
     finally:
         upload.unlink(missing_ok=True)
+        context.store.remove(key)
     colmap_db.check_untrusted(work / "database.db")  # before pycolmap or we read a row of it
     workspace = Workspace(work)
-    workspace.write_meta({"image_dir": str(context.images_dir()), "imported": True})
+    location = context.store.image_location(context.job.project_id)
+    workspace.write_meta({"image_dir": location, "imported": True})
     names = set(workspace.image_ids())
     missing = sorted(names - {image.name for image in images})
     if missing:

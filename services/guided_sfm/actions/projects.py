@@ -7,7 +7,7 @@ from sqlalchemy.orm import Session
 from guided_sfm.db import queries
 from guided_sfm.db.models import Membership, Project
 from guided_sfm.errors import Conflict
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store
 
 
 def add(session: Session, user_id: int, name: str, description: str = "") -> Project:
@@ -20,7 +20,7 @@ def add(session: Session, user_id: int, name: str, description: str = "") -> Pro
     return project
 
 
-def create(session: Session, store: ArtifactStore, user_id: int, name: str, description: str = "") -> Project:
+def create(session: Session, store: Store, user_id: int, name: str, description: str = "") -> Project:
     project = add(session, user_id, name, description)
     # SQLite reuses the id of a deleted last row: files a crashed deletion left are not this project's
     store.delete_project(project.id)
@@ -28,7 +28,7 @@ def create(session: Session, store: ArtifactStore, user_id: int, name: str, desc
     return project
 
 
-def delete(session: Session, store: ArtifactStore, project: Project) -> None:
+def delete(session: Session, store: Store, project: Project) -> None:
     """Rows first (one transaction), then the files; 409 while a job is queued or running."""
     if queries.active_job(session, project.id) is not None:
         raise Conflict(f"project {project.id} has a queued or running job; cancel it first")

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 from sqlalchemy.orm import Session
 
 from guided_sfm import jobs
@@ -12,16 +9,17 @@ from guided_sfm.actions import webhooks
 from guided_sfm.actions.context import NewImage, Produced
 from guided_sfm.db.models import Image, Job, PairDeletion, Project, Version
 from guided_sfm.errors import Conflict
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store, image_key
 
 
-def publish(session: Session, store: ArtifactStore, job: Job, produced: Produced) -> Version:
-    """Publish the workspace (one rename), insert the version, finish the job; all or nothing."""
+def publish(session: Session, store: Store, job: Job, produced: Produced) -> Version:
+    """Publish the workspace (one rename, or a manifest written last), insert the version, finish
+    the job; all or nothing."""
     project = session.get(Project, job.project_id, with_for_update=True)
     if project is None:
         raise Conflict(f"project {job.project_id} was deleted while job {job.id} ran")
     moved = _move_images(store, job.project_id, produced)
-    relative = store.publish(job.project_id, produced.workspace)
+    relative = store.publish(job.project_id, produced.workspace, produced.reuse_from)
     try:
         version = _insert(session, job, produced, relative, project)
         message = produced.message
@@ -41,8 +39,8 @@ def publish(session: Session, store: ArtifactStore, job: Job, produced: Produced
     except BaseException:
         session.rollback()
         store.discard(relative)
-        for path in moved:
-            path.unlink(missing_ok=True)
+        for key in moved:
+            store.remove(key)
         raise
 
 
@@ -66,14 +64,12 @@ def _add_images(session: Session, project_id: int, images: list[NewImage]) -> No
     session.flush()
 
 
-def _move_images(store: ArtifactStore, project_id: int, produced: Produced) -> list[Path]:
-    """An import's images go to the project's shared image folder (the project is empty)."""
+def _move_images(store: Store, project_id: int, produced: Produced) -> list[str]:
+    """An import's images go to the project's shared images (the project is empty); their keys."""
     if produced.images_from is None:
         return []
-    target = store.images_dir(project_id)
-    target.mkdir(parents=True, exist_ok=True)
     moved = []
     for image in produced.new_images:
-        os.replace(produced.images_from / image.name, target / image.name)
-        moved.append(target / image.name)
+        store.put(image_key(project_id, image.name), produced.images_from / image.name)
+        moved.append(image_key(project_id, image.name))
     return moved

@@ -10,14 +10,14 @@ from sqlalchemy.orm import Session
 from guided_sfm.actions import edit_sets
 from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.types import pair_key
-from guided_sfm.core.workspace import Workspace
+from guided_sfm.core.workspace import DATABASE, Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import EditSetRow, Project, Version
 from guided_sfm.errors import Conflict
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store
 
 
-def rebase(session: Session, store: ArtifactStore, project: Project, row: EditSetRow,
+def rebase(session: Session, store: Store, project: Project, row: EditSetRow,
            if_match: str | None, user_id: int) -> tuple[EditSetRow, dict[str, Any]]:
     """(the edit set on the head, the report {from_version, to_version, carried, dropped})."""
     edit_sets.parse_if_match(if_match)
@@ -36,11 +36,12 @@ def rebase(session: Session, store: ArtifactStore, project: Project, row: EditSe
     return saved, {"from_version": old, "to_version": head, **report}
 
 
-def _head_view(session: Session, store: ArtifactStore, project_id: int, head: int) -> tuple[set, set]:
+def _head_view(session: Session, store: Store, project_id: int, head: int) -> tuple[set, set]:
     """(REST ids of the head's images, its verified pairs as sorted REST id pairs)."""
-    workspace = Workspace(store.version_dir(session.get(Version, head).path))
-    ids = IdMap.load(session, project_id, workspace)
-    return set(ids.to_sql.values()), {tuple(p) for p in ids.pairs(workspace.verified_pairs())}
+    with store.reading(session.get(Version, head).path, only=(DATABASE,)) as root:
+        workspace = Workspace(root)
+        ids = IdMap.load(session, project_id, workspace)
+        return set(ids.to_sql.values()), {tuple(p) for p in ids.pairs(workspace.verified_pairs())}
 
 
 def carry(body: dict[str, Any], head_view: tuple[set, set], head: int) -> tuple[dict[str, Any], dict]:

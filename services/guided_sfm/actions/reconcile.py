@@ -1,13 +1,13 @@
-"""Files and rows agree after any crash: files the database does not list are removed once older
-than a grace period (an upload reveals its files just before it commits its rows), on the API's
-start and now and then from the worker's sweeper."""
+"""Files and rows agree after any crash: the collection pass. Keys the database does not reference
+are removed from the store once older than a grace period (an upload reveals its files just before
+it commits its rows; a job publishes its version just before it commits its row), on the API's start
+and now and then from each worker's sweeper. Works on either backend through the store's keys."""
 
 from __future__ import annotations
 
 import logging
-import shutil
 import time
-from pathlib import Path, PurePosixPath
+from pathlib import PurePosixPath
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
@@ -15,80 +15,59 @@ from sqlalchemy.orm import Session, sessionmaker
 from guided_sfm.db.models import Image, Project, Version
 from guided_sfm.db.session import session_scope
 from guided_sfm.settings import Settings
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store, open_store, project_prefix
 
 log = logging.getLogger(__name__)
-SHORT_LIVED = ("upload-", "import-")  # request-time staging folders; a job's own live for hours
+SHORT_LIVED = ("upload-", "import-", "thumb-")  # request-time staging folders; a job's own live for hours
 
 
-def reconcile(session: Session, store: ArtifactStore, grace_seconds: float) -> dict[str, int]:
+def reconcile(session: Session, store: Store, grace_seconds: float) -> dict[str, int]:
     """Remove orphans older than grace_seconds: projects without a row, image files, thumbnails and
-    version folders without a row, and stale upload staging folders. Returns counts by kind."""
+    versions without a row (published or half-published), stale request staging in the data dir,
+    and scratch dirs of dead processes. Returns counts by kind."""
     cutoff = time.time() - grace_seconds
     removed = {"projects": 0, "images": 0, "thumbs": 0, "versions": 0, "tmp": 0}
-    root = store.root / "projects"
     live = set(session.scalars(select(Project.id)))
-    for folder in sorted(root.iterdir()) if root.is_dir() else []:
-        if not folder.name.isdigit():
+    for name, changed in sorted(store.children("projects").items()):
+        if not name.isdigit():
             continue
-        if int(folder.name) in live:
-            _sweep_project(session, folder, cutoff, removed)
-        elif _older(folder, cutoff):
-            shutil.rmtree(folder, ignore_errors=True)
+        if int(name) in live:
+            _sweep_project(session, store, int(name), cutoff, removed)
+        elif changed < cutoff:
+            store.remove(project_prefix(int(name)))
             removed["projects"] += 1
     session.rollback()  # nothing written; end the read
+    removed["tmp"] += store.clear_stale_scratch()
     if any(removed.values()):
         log.warning("reconcile: removed orphans %s", removed)
     return removed
 
 
-def _sweep_project(session: Session, folder: Path, cutoff: float, removed: dict[str, int]) -> None:
-    project_id = int(folder.name)
+def _sweep_project(session: Session, store: Store, project_id: int, cutoff: float,
+                   removed: dict[str, int]) -> None:
+    prefix = project_prefix(project_id)
     rows = session.execute(select(Image.id, Image.name).where(Image.project_id == project_id)).all()
     paths = session.scalars(select(Version.path).where(Version.project_id == project_id))
-    removed["images"] += _sweep(folder / "images", {name for _, name in rows}, cutoff)
-    removed["thumbs"] += _sweep(folder / "thumbs", {f"{image_id}.jpg" for image_id, _ in rows}, cutoff)
-    removed["versions"] += _sweep_dirs(folder / "versions", {PurePosixPath(p).name for p in paths}, cutoff)
-    removed["tmp"] += _sweep_tmp(folder / "tmp", cutoff)
+    thumbs, versions = {f"{image_id}.jpg" for image_id, _ in rows}, {PurePosixPath(p).name for p in paths}
+    removed["images"] += _sweep(store, f"{prefix}/images", {name for _, name in rows}, cutoff)
+    removed["thumbs"] += _sweep(store, f"{prefix}/thumbs", thumbs, cutoff)
+    removed["versions"] += _sweep(store, f"{prefix}/versions", versions, cutoff)
+    removed["tmp"] += _sweep(store, f"{prefix}/tmp", None, cutoff)
 
 
 def reconcile_store(sessions: sessionmaker[Session], settings: Settings) -> dict[str, int]:
     """reconcile() on the settings' artifact store, in a session of its own."""
     with session_scope(sessions) as session:
-        return reconcile(session, ArtifactStore(settings.artifacts_dir), settings.orphan_grace_seconds)
+        return reconcile(session, open_store(settings), settings.orphan_grace_seconds)
 
 
-def _older(path: Path, cutoff: float) -> bool:
-    try:
-        stat = path.lstat()
-    except FileNotFoundError:
-        return False
-    return stat.st_mtime < cutoff  # a revealed file keeps the time it was written in staging
-
-
-def _sweep(folder: Path, listed: set[str], cutoff: float) -> int:
+def _sweep(store: Store, prefix: str, listed: set[str] | None, cutoff: float) -> int:
+    """Children of prefix that are not listed and older than cutoff; listed=None: the data dir's
+    request staging folders (a job's own are left to it: it may run for hours)."""
     count = 0
-    for path in folder.iterdir() if folder.is_dir() else []:
-        if path.name not in listed and path.is_file() and _older(path, cutoff):
-            path.unlink(missing_ok=True)
-            count += 1
-    return count
-
-
-def _sweep_dirs(folder: Path, listed: set[str], cutoff: float) -> int:
-    """Version folders no row points at: a worker killed between publishing and committing."""
-    count = 0
-    for path in folder.iterdir() if folder.is_dir() else []:
-        if path.name not in listed and path.is_dir() and _older(path, cutoff):
-            shutil.rmtree(path, ignore_errors=True)
-            count += 1
-    return count
-
-
-def _sweep_tmp(folder: Path, cutoff: float) -> int:
-    count = 0
-    for path in folder.iterdir() if folder.is_dir() else []:
-        if path.name.startswith(SHORT_LIVED) and _older(path, cutoff):
-            shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink(missing_ok=True)
+    for name, changed in store.children(prefix).items():
+        orphan = name.startswith(SHORT_LIVED) if listed is None else name not in listed
+        if orphan and changed < cutoff:
+            store.remove(f"{prefix}/{name}")
             count += 1
     return count

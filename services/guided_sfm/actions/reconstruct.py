@@ -16,7 +16,6 @@ from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Job, Project
 from guided_sfm.db.session import session_scope
-from guided_sfm.storage import link_file
 
 
 def queue(session: Session, submit: Callable[[int], None], project: Project, user_id: int,
@@ -34,13 +33,13 @@ def run(context: JobContext, work: Path) -> Produced:
     if count < 2:
         raise InvalidInput(f"a reconstruction needs at least 2 images; the project has {count}")
     run, workspace = context.run(), Workspace(work)
-    _reuse_tree(context, workspace)
-    workspace.reconstruct(context.images_dir(), run, names)
+    reused = _reuse_tree(context, workspace)
+    workspace.reconstruct(context.images_dir(names), run, names)
     stats, used = workspace.stats(), workspace.used()
     message = (f"reconstructed {stats['num_registered']} of {stats['num_images']} images "
                f"({_chosen(run.options.matcher, used['matcher'])} matching, "
                f"{used['mapper']} mapping)")
-    return Produced(work, "reconstruct", message, context.job.base_version_id, stats)
+    return Produced(work, "reconstruct", message, context.job.base_version_id, stats, reuse_from=reused)
 
 
 def _chosen(asked: str, used: str) -> str:
@@ -48,14 +47,14 @@ def _chosen(asked: str, used: str) -> str:
     return used if asked == used else f"{asked}: {used}"
 
 
-def _reuse_tree(context: JobContext, workspace: Workspace) -> None:
-    """Link the newest vocabulary tree of the project's earlier versions into the new workspace,
-    so retrieval does not train one again (the tree is kept with the project)."""
+def _reuse_tree(context: JobContext, workspace: Workspace) -> tuple[str, ...]:
+    """Fetch the newest vocabulary tree of the project's earlier versions into the new workspace,
+    so retrieval does not train one again (the tree is kept with the project); the version it
+    came from, whose stored tree the new version then shares."""
     with session_scope(context.sessions) as session:
         paths = [v.path for v in reversed(queries.versions(session, context.job.project_id))]
+    workspace.root.mkdir(parents=True, exist_ok=True)
     for path in paths:
-        tree = Workspace(context.store.version_dir(path)).tree
-        if tree.is_file():
-            workspace.root.mkdir(parents=True, exist_ok=True)
-            link_file(tree, workspace.tree)
-            return
+        if context.store.fetch_member(path, workspace.tree.name, workspace.tree):
+            return (path,)
+    return ()

@@ -24,7 +24,7 @@ from guided_sfm.db.models import Image, Job
 from guided_sfm.db.session import session_scope
 from guided_sfm.errors import without_paths
 from guided_sfm.settings import Settings
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import open_store
 
 log = logging.getLogger(__name__)
 OVERRUN_GRACE_BEATS = 5  # heartbeats a job past its limit gets to notice the cancel before its process exits
@@ -127,11 +127,11 @@ def log_end(sessions: sessionmaker[Session], job_id: int) -> None:
 
 
 def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: JobToken) -> str:
-    store = ArtifactStore(settings.artifacts_dir)
+    store = open_store(settings)
     clock = StageClock(jobs.Reporter(sessions, job.id))
-    context = JobContext(settings, store, sessions, job, clock, token)
     try:
         with store.staging(job.project_id, prefix=f"job-{job.id}-") as work:
+            context = JobContext(settings, store, sessions, job, clock, token, work)
             produced = ACTIONS[job.kind](context, work / "workspace")
             token.check()  # a cancel that arrived after the last step still wins
             produced.timings = clock.report()

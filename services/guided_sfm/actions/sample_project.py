@@ -19,7 +19,7 @@ from guided_sfm.db import queries
 from guided_sfm.db.models import Project, User
 from guided_sfm.db.session import session_scope
 from guided_sfm.settings import Settings
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store, open_store
 
 CREDENTIALS = "sample-credentials.json"
 TRUTH = "sample-truth.json"  # the sample's ground truth, for evaluating corrections
@@ -33,7 +33,7 @@ def ensure(sessions: sessionmaker[Session], settings: Settings, submit: Callable
         return json.loads(path.read_text())
     from guided_sfm.sample import DEFAULT_LAYOUT, write_sample  # renders with numpy; only needed once
 
-    store = ArtifactStore(settings.artifacts_dir)
+    store = open_store(settings)
     password = secrets.token_urlsafe(12)
     with tempfile.TemporaryDirectory(dir=settings.data_dir) as tmp, session_scope(sessions) as session:
         sample = write_sample(Path(tmp) / "sample", layout=DEFAULT_LAYOUT, seed=0)
@@ -59,7 +59,7 @@ def _user(session: Session, password_hash: str) -> User:
     return user
 
 
-def _upload(session: Session, store: ArtifactStore, project: Project, files: list[Path],
+def _upload(session: Session, store: Store, project: Project, files: list[Path],
             settings: Settings) -> None:
     with ExitStack() as stack:
         opened = [(p.name, stack.enter_context(open(p, "rb"))) for p in files]

@@ -5,30 +5,34 @@ from __future__ import annotations
 import json
 import threading
 from collections import OrderedDict
+from contextlib import ExitStack
 from typing import Any
 
 from sqlalchemy.orm import Session
 
 from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.edits import parse_edits
-from guided_sfm.core.workspace import Workspace
+from guided_sfm.core.workspace import DATABASE, EDITS, META, PRUNING, SCENE, SPARSE, Workspace
 from guided_sfm.db.models import EditSetRow, Version
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store
+
+READ = (DATABASE, SPARSE + "/", SCENE, META, EDITS, PRUNING)  # all a reader needs: not the vocab tree
 
 
-def _workspace(store: ArtifactStore, version: Version) -> Workspace:
-    return Workspace(store.version_dir(version.path))
+def _workspace(stack: ExitStack, store: Store, version: Version) -> Workspace:
+    """The version's workspace for the length of the stack (fetched from the store if need be)."""
+    return Workspace(stack.enter_context(store.reading(version.path, only=READ)))
 
 
 class _SceneCache:
     """Serialized scenes of recent versions: a version never changes, and its JSON (thousands of
-    points) costs far more to build than to send. Keyed by the version's unique artifact path."""
+    points) costs far more to build than to send. Keyed by the version's unique artifact key."""
 
     def __init__(self, size: int = 32) -> None:
         self.size, self.entries, self.lock = size, OrderedDict[str, bytes](), threading.Lock()
 
-    def get(self, session: Session, store: ArtifactStore, version: Version) -> bytes:
-        key = str(store.version_dir(version.path))
+    def get(self, session: Session, store: Store, version: Version) -> bytes:
+        key = f"{store!r}:{version.path}"
         with self.lock:
             if key in self.entries:
                 self.entries.move_to_end(key)
@@ -44,27 +48,31 @@ class _SceneCache:
 scene_json = _SceneCache().get
 
 
-def scene(session: Session, store: ArtifactStore, version: Version) -> dict[str, Any]:
-    workspace = _workspace(store, version)
-    ids = IdMap.load(session, version.project_id, workspace)
-    data = workspace.scene().to_dict()
+def scene(session: Session, store: Store, version: Version) -> dict[str, Any]:
+    with ExitStack() as stack:
+        workspace = _workspace(stack, store, version)
+        ids = IdMap.load(session, version.project_id, workspace)
+        data = workspace.scene().to_dict()
     data["cameras"] = ids.rows(data["cameras"])
     return data
 
 
-def pairs(session: Session, store: ArtifactStore, version: Version, image_id: int | None) -> list[dict]:
-    workspace = _workspace(store, version)
-    ids = IdMap.load(session, version.project_id, workspace)
+def pairs(session: Session, store: Store, version: Version, image_id: int | None) -> list[dict]:
+    with store.reading(version.path, only=(DATABASE,)) as root:
+        workspace = Workspace(root)
+        ids = IdMap.load(session, version.project_id, workspace)
+        verified = workspace.verified_pairs()
     return [{"image_id1": id1, "image_id2": id2, "num_inliers": inliers}
-            for (id1, id2), inliers in ids.pairs_with(sorted(workspace.verified_pairs().items()))
+            for (id1, id2), inliers in ids.pairs_with(sorted(verified.items()))
             if image_id is None or image_id in (id1, id2)]
 
 
-def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Version) -> dict[str, Any]:
+def preview(session: Session, store: Store, row: EditSetRow, base: Version) -> dict[str, Any]:
     """What applying the edit set would delete; nothing is written."""
-    workspace = _workspace(store, base)
-    ids = IdMap.load(session, base.project_id, workspace)
-    outcome = workspace.preview(parse_edits(ids.edits_body(row.body), workspace.image_ids()))
+    with ExitStack() as stack:
+        workspace = _workspace(stack, store, base)
+        ids = IdMap.load(session, base.project_id, workspace)
+        outcome = workspace.preview(parse_edits(ids.edits_body(row.body), workspace.image_ids()))
     return {
         "pairs_to_delete": ids.pairs(outcome.deleted),
         "components_before": outcome.components_before,
@@ -76,11 +84,20 @@ def preview(session: Session, store: ArtifactStore, row: EditSetRow, base: Versi
     }
 
 
-def compare(session: Session, store: ArtifactStore, version: Version, other: Version) -> dict[str, Any]:
-    ids = IdMap.load(session, other.project_id, _workspace(store, other))
-    edited = set().union(*(_workspace(store, v).touched_names() for v in _between(session, version, other)))
-    rows = _workspace(store, version).compare(_workspace(store, other), edited)
+def compare(session: Session, store: Store, version: Version, other: Version) -> dict[str, Any]:
+    with ExitStack() as stack:
+        other_ws = _workspace(stack, store, other)
+        ids = IdMap.load(session, other.project_id, other_ws)
+        between = _between(session, version, other)
+        edited = set().union(*(_edited(store, v) for v in between))
+        rows = _workspace(stack, store, version).compare(other_ws, edited)
     return {"cameras": ids.rows(rows)}
+
+
+def _edited(store: Store, version: Version) -> set[str]:
+    """Names of the images the round that made the version edited."""
+    with store.reading(version.path, only=(DATABASE, EDITS)) as root:
+        return Workspace(root).touched_names()
 
 
 def _lineage(session: Session, version: Version) -> list[Version]:

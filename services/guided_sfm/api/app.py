@@ -34,7 +34,7 @@ from guided_sfm.api.schemas import InvalidOut
 from guided_sfm.api.throttle import Throttle
 from guided_sfm.db.session import make_sessionmaker
 from guided_sfm.settings import Settings
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import open_store
 
 FRONTEND = Path(__file__).resolve().parents[3] / "frontend"
 API_PREFIX = "/api/v1"
@@ -48,7 +48,7 @@ def create_app(settings: Settings, submit: Callable[[int], None],
                   responses={422: {"model": InvalidOut, "description": "Invalid request"}})
     app.state.settings = settings
     app.state.sessions = sessions or make_sessionmaker(settings)
-    app.state.store = ArtifactStore(settings.artifacts_dir)
+    app.state.store = open_store(settings)
     app.state.submit = submit
     app.state.readiness = readiness or dict
     app.state.throttle = Throttle(settings)

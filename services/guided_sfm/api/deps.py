@@ -20,7 +20,7 @@ from guided_sfm.db.models import MAX_ID, AccessToken, EditSetRow, Image, Job, Pr
 from guided_sfm.db.session import read_only
 from guided_sfm.errors import Forbidden, NotFound, Unauthorized
 from guided_sfm.settings import Settings
-from guided_sfm.storage import ArtifactStore
+from guided_sfm.storage import Store
 
 PathId = Annotated[int, Path(ge=1, le=MAX_ID)]
 MAX_PAGE = 10_000
@@ -43,7 +43,7 @@ def get_settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def get_store(request: Request) -> ArtifactStore:
+def get_store(request: Request) -> Store:
     return request.app.state.store
 
 
@@ -63,7 +63,7 @@ SessionDep = Annotated[Session, Depends(get_session)]
 ThrottleDep = Annotated[Throttle, Depends(get_throttle)]
 ClientAddress = Annotated[str, Depends(client_address)]
 SettingsDep = Annotated[Settings, Depends(get_settings)]
-StoreDep = Annotated[ArtifactStore, Depends(get_store)]
+StoreDep = Annotated[Store, Depends(get_store)]
 SubmitDep = Annotated[Callable[[int], None], Depends(get_submit)]
 
 

@@ -48,12 +48,13 @@ def export_colmap_text(workspace: Workspace, out_file: Path) -> None:
                 archive.write(Path(scratch) / name, name)
 
 
-def export_nerfstudio(workspace: Workspace, out_file: Path) -> None:
+def export_nerfstudio(workspace: Workspace, out_file: Path, image_dir: Path | None = None) -> None:
     """A zip of transforms.json (one frame per registered camera of the largest model), the
-    images it names under images/, and sparse_pc.ply."""
+    images it names under images/ (from image_dir, else where the workspace records them), and
+    sparse_pc.ply."""
     model = _largest(workspace)
     document = nerfstudio.transforms(model)
-    image_dir = workspace.image_dir()
+    image_dir = image_dir or workspace.image_dir()
     with tempfile.TemporaryDirectory(prefix="nerfstudio-") as scratch:
         ply = Path(scratch) / "sparse_pc.ply"
         nerfstudio.write_points_ply(model, ply)

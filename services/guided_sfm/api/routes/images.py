@@ -7,6 +7,7 @@ from fastapi.responses import FileResponse
 
 from guided_sfm.actions import images as image_actions
 from guided_sfm.actions.activity import record
+from guided_sfm.api.blobs import blob_response
 from guided_sfm.api.deps import (
     ActorDep,
     EditorImage,
@@ -43,13 +44,13 @@ def list_images(project: ViewerProject, session: SessionDep, page: PageDep) -> l
 
 
 @router.get("/{image_id}/thumbnail", response_class=FileResponse)
-def thumbnail(image: ViewerImage, store: StoreDep) -> FileResponse:
-    return FileResponse(image_actions.thumbnail(store, image), media_type="image/jpeg")
+def thumbnail(image: ViewerImage, store: StoreDep) -> Response:
+    return blob_response(image_actions.thumbnail(store, image), media_type="image/jpeg")
 
 
 @router.get("/{image_id}/file", response_class=FileResponse)
-def original(image: ViewerImage, store: StoreDep) -> FileResponse:
-    return FileResponse(store.image_file(image.project_id, image.name), filename=image.name)
+def original(image: ViewerImage, store: StoreDep) -> Response:
+    return blob_response(image_actions.original(store, image), filename=image.name)
 
 
 @router.delete("/{image_id}", status_code=204)

@@ -1,0 +1,237 @@
+"""The S3 backend (any S3-compatible server: AWS, MinIO, moto). A version is a set of objects under
+`versions/{vid}/files/` and a manifest `versions/{vid}/manifest.json` naming each file's key, size
+and SHA-256; the manifest is written last, so a version exists once its manifest does and a job that
+dies before it leaves objects no reader looks at (the reconciler collects them). Work happens in a
+scratch dir under the process's temp dir (TMPDIR), emptied when the job or request ends."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import uuid
+from collections.abc import Iterable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+from pathlib import Path
+from urllib.parse import urlsplit
+
+import boto3
+from botocore.config import Config
+from botocore.exceptions import ClientError
+
+from guided_sfm.storage.base import Blob, Store, UnpublishedVersion, image_key, project_prefix
+
+MANIFEST = "manifest.json"
+SCRATCH = "guided-sfm-scratch"  # under the temp dir; one folder per job or request, named by pid
+TRANSFERS = 8  # parallel downloads when a job fetches its inputs
+CHUNK = 1 << 20  # bytes per chunk when the API streams a file
+
+
+class S3Store(Store):
+    def __init__(self, client, bucket: str, prefix: str = "", scratch_root: Path | None = None) -> None:
+        self.client, self.bucket, self.prefix = client, bucket, prefix.strip("/")
+        self.scratch_root = scratch_root or Path(tempfile.gettempdir()) / SCRATCH
+
+    @classmethod
+    def from_url(cls, artifacts_url: str, endpoint_url: str = "") -> S3Store:
+        """s3://BUCKET/PREFIX; boto3 reads AWS_ACCESS_KEY_ID, AWS_SECRET_ACCESS_KEY and
+        AWS_DEFAULT_REGION itself."""
+        url = urlsplit(artifacts_url)
+        endpoint = endpoint_url or None
+        config = Config(s3={"addressing_style": "path"}) if endpoint else None  # MinIO, moto
+        client = boto3.session.Session().client("s3", endpoint_url=endpoint, config=config)
+        return cls(client, url.netloc, url.path)
+
+    def _key(self, key: str) -> str:
+        return f"{self.prefix}/{key}" if self.prefix else key
+
+    def __repr__(self) -> str:
+        return f"S3Store(s3://{self.bucket}/{self.prefix})"
+
+    # -- single files -----------------------------------------------------------------------------
+
+    def put(self, key: str, source: Path) -> None:
+        self.client.upload_file(str(source), self.bucket, self._key(key))
+
+    def put_bytes(self, key: str, data: bytes) -> None:
+        self.client.put_object(Bucket=self.bucket, Key=self._key(key), Body=data)
+
+    def fetch(self, key: str, target: Path) -> None:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.client.download_file(self.bucket, self._key(key), str(target))
+        except ClientError as exc:
+            raise _missing(exc, key) from exc
+
+    def exists(self, key: str) -> bool:
+        try:
+            self.client.head_object(Bucket=self.bucket, Key=self._key(key))
+            return True
+        except ClientError as exc:
+            if _status(exc) == 404:
+                return False
+            raise
+
+    def remove(self, key: str) -> None:
+        keys = [self._key(key), *(k for k, _ in self._list(key + "/"))]
+        for start in range(0, len(keys), 1000):  # S3's limit per request
+            objects = [{"Key": k} for k in keys[start:start + 1000]]
+            self.client.delete_objects(Bucket=self.bucket, Delete={"Objects": objects, "Quiet": True})
+
+    def children(self, prefix: str) -> dict[str, float]:
+        """Each child's time is its newest object's: a version still being uploaded looks young."""
+        found: dict[str, float] = {}
+        start = len(self._key(prefix)) + 1
+        for key, modified in self._list(prefix + "/"):
+            name = key[start:].split("/", 1)[0]
+            found[name] = max(found.get(name, 0.0), modified)
+        return found
+
+    def blob(self, key: str) -> Blob:
+        try:
+            answer = self.client.get_object(Bucket=self.bucket, Key=self._key(key))
+        except ClientError as exc:
+            raise _missing(exc, key) from exc
+        return Blob(answer["ContentLength"], chunks=_closing_chunks(answer["Body"]))
+
+    def _list(self, prefix: str) -> Iterator[tuple[str, float]]:
+        """(full key, last modified) of every object under prefix."""
+        pages = self.client.get_paginator("list_objects_v2").paginate(Bucket=self.bucket,
+                                                                      Prefix=self._key(prefix))
+        for page in pages:
+            for item in page.get("Contents", []):
+                yield item["Key"], item["LastModified"].timestamp()
+
+    # -- versions and scratch ---------------------------------------------------------------------
+
+    @contextmanager
+    def staging(self, project_id: int, prefix: str = "work-") -> Iterator[Path]:
+        self.scratch_root.mkdir(parents=True, exist_ok=True)
+        path = Path(tempfile.mkdtemp(prefix=f"{prefix}p{os.getpid()}-", dir=self.scratch_root))
+        try:
+            yield path
+        finally:
+            shutil.rmtree(path, ignore_errors=True)
+
+    def publish(self, project_id: int, staged: Path, reuse_from: Sequence[str] = ()) -> str:
+        version = f"{project_prefix(project_id)}/versions/{uuid.uuid4().hex}"
+        known = {entry["sha256"]: entry for source in reuse_from
+                 for entry in self._manifest(source)["files"].values()}
+        files = {}
+        for path in sorted(p for p in staged.rglob("*") if p.is_file()):
+            member, digest = path.relative_to(staged).as_posix(), _sha256(path)
+            if digest in known:  # unchanged since a published version: share its object
+                files[member] = known[digest]
+                continue
+            files[member] = {"key": f"{version}/files/{member}", "size": path.stat().st_size,
+                             "sha256": digest}
+            self.put(files[member]["key"], path)
+        dirs = sorted(p.relative_to(staged).as_posix() for p in staged.rglob("*") if p.is_dir())
+        self._write_manifest(version, {"files": files, "dirs": dirs})
+        return version
+
+    def _write_manifest(self, version: str, manifest: dict) -> None:
+        """The last write of a publish: from here on the version exists."""
+        self.put_bytes(f"{version}/{MANIFEST}", json.dumps(manifest, indent=1).encode())
+
+    def _manifest(self, version: str) -> dict:
+        try:
+            answer = self.client.get_object(Bucket=self.bucket, Key=self._key(f"{version}/{MANIFEST}"))
+        except ClientError as exc:
+            if _status(exc) == 404:
+                raise UnpublishedVersion(f"version {version} has no manifest: never published") from exc
+            raise
+        with answer["Body"] as body:
+            return json.loads(body.read())
+
+    def checkout(self, version: str, scratch: Path, only: Sequence[str] | None = None) -> Path:
+        manifest = self._manifest(version)
+        target = Path(tempfile.mkdtemp(prefix="version-", dir=scratch))
+        for folder in manifest["dirs"]:
+            (target / folder).mkdir(parents=True, exist_ok=True)
+        wanted = [(entry["key"], target / member) for member, entry in manifest["files"].items()
+                  if only is None or member.startswith(tuple(only))]
+        self._fetch_all(wanted)
+        return target
+
+    def _fetch_all(self, pairs: list[tuple[str, Path]]) -> None:
+        with ThreadPoolExecutor(TRANSFERS) as pool:
+            for done in [pool.submit(self.fetch, key, target) for key, target in pairs]:
+                done.result()
+
+    def fetch_member(self, version: str, member: str, target: Path) -> bool:
+        entry = self._manifest(version)["files"].get(member)
+        if entry is None:
+            return False
+        self.fetch(entry["key"], target)
+        return True
+
+    def copy_version(self, project_id: int, version: str) -> str:
+        """A new manifest naming the same objects: restore writes one small object."""
+        copy = f"{project_prefix(project_id)}/versions/{uuid.uuid4().hex}"
+        self._write_manifest(copy, self._manifest(version))
+        return copy
+
+    def images_for(self, project_id: int, names: Iterable[str], scratch: Path) -> Path:
+        folder = scratch / "images"
+        folder.mkdir(parents=True, exist_ok=True)
+        self._fetch_all([(image_key(project_id, name), folder / name) for name in names
+                         if not (folder / name).is_file()])
+        return folder
+
+    def image_location(self, project_id: int) -> str:
+        return f"s3://{self.bucket}/{self._key(project_prefix(project_id))}/images"
+
+    def clear_stale_scratch(self) -> int:
+        """Scratch dirs whose process is gone (killed mid-job): named `...p{pid}-...`."""
+        removed = 0
+        for path in self.scratch_root.iterdir() if self.scratch_root.is_dir() else []:
+            pid = _pid_in(path.name)
+            if pid is not None and not _alive(pid):
+                shutil.rmtree(path, ignore_errors=True)
+                removed += 1
+        return removed
+
+
+def _status(exc: ClientError) -> int:
+    return int(exc.response.get("ResponseMetadata", {}).get("HTTPStatusCode", 0))
+
+
+def _missing(exc: ClientError, key: str) -> Exception:
+    code = str(exc.response.get("Error", {}).get("Code", ""))
+    return FileNotFoundError(f"no stored file {key}") if code in ("404", "NoSuchKey") else exc
+
+
+def _closing_chunks(body) -> Iterator[bytes]:
+    try:
+        yield from body.iter_chunks(CHUNK)
+    finally:
+        body.close()
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(CHUNK), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _pid_in(name: str) -> int | None:
+    for part in name.split("-"):
+        if part.startswith("p") and part[1:].isdigit():
+            return int(part[1:])
+    return None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
