@@ -8,7 +8,8 @@ reconstructs, moves one camera in an edit set, applies it with remap; waits for 
 its stage and progress. Then asks the engine (docker where `docker info` works, else podman) for
 the worker containers (one or more): their hostnames, which of them ran each job (its log's
 "job N (KIND) produced version V" line, V the job's version), the Celery workers answering on the
-stack's broker (all must be worker containers), the files each keeps in its data and temp dirs;
+stack's broker (all must be worker containers), the files each app container (api and workers)
+keeps in its data and temp dirs;
 and, with an S3 store, the project's objects in it (through the api container's boto3). The last
 stdout line is a JSON summary; the exit status is 0 only when every job succeeded and every check
 held (`failures` lists the rest).
@@ -165,7 +166,7 @@ class Engine:
 PING = ("from guided_sfm.settings import Settings; from worker.celery_app import make_celery; import json; "
         "print(json.dumps([n for r in make_celery(Settings.from_env()).control.ping(timeout=5) for n in r]))")
 HOSTNAME = "import socket; print(socket.gethostname())"
-# Files a worker container holds outside the store: its data dir and its temp dir (scratch).
+# Files a container of the app holds outside the store: its data dir and its temp dir (scratch).
 LEFT_FILES = ("import os, tempfile, json; print(json.dumps(sorted(os.path.join(d, f) for top in "
               "(os.environ.get('GUIDED_SFM_DATA_DIR', '/data'), tempfile.gettempdir()) "
               "for d, _, fs in os.walk(top) for f in fs)))")
@@ -197,7 +198,7 @@ def container_checks(engine: Engine, jobs: list[dict]) -> dict:
     answering = json.loads(engine.python(api, PING).splitlines()[-1])
     return {"engine": engine.tool, "worker_hostnames": hostnames, "broker_workers": answering,
             "job_containers": worker_of_each_job(engine, jobs),
-            "worker_files_left": {c: json.loads(engine.python(c, LEFT_FILES)) for c in workers},
+            "files_left": {c: json.loads(engine.python(c, LEFT_FILES)) for c in [api, *workers]},
             "worker_processes": engine.run("top", workers[0]).strip().splitlines()}
 
 
@@ -237,7 +238,7 @@ def job_summary(job: dict) -> dict:
 
 def failures(result: dict, checks: dict, store: dict[str, int] | None) -> list[str]:
     """What did not hold: every job succeeded in a worker container that the broker knows, and with
-    an S3 store, the project is in the store and nothing of it is left in a worker container."""
+    an S3 store, the project is in the store and nothing of it is left in the app's containers."""
     found = []
     if [job["state"] for job in result["jobs"]] != ["succeeded", "succeeded"]:
         found.append("a job did not succeed")
@@ -253,7 +254,7 @@ def failures(result: dict, checks: dict, store: dict[str, int] | None) -> list[s
         if store.get("images", 0) < result.get("images", 1) or not store.get("versions"):
             found.append(f"the store lacks the project's images or versions: {store}")
         found += [f"{container} keeps {len(files)} files outside the store: {files[:3]}"
-                  for container, files in checks["worker_files_left"].items() if files]
+                  for container, files in checks["files_left"].items() if files]
     return found
 
 

@@ -5,7 +5,8 @@ What differs, and why (README, "Deployment"):
   listen on loopback only; the api listens on GUIDED_SFM_PORT itself (no port mapping);
 - postgres and redis: the machine's own (their images are in no registry reachable here, and
   their ports are taken), with a database and a Redis database number of the stack's own;
-- minio and minio-init: moto's S3 server from PyPI and a boto3 script, in an image built here;
+- minio and minio-init: moto's S3 server from PyPI (the bucket in its memory: no volume) and a
+  boto3 script, in an image built here;
 - images built here on a debootstrapped Debian (see stack.sh), never pulled.
 Usage: local_compose.py docker-compose.yml DATABASE_URL BROKER_URL S3_PORT API_PORT
 """
@@ -47,8 +48,9 @@ def local(compose: dict, database_url: str, broker_url: str, s3_port: str, api_p
     for service in services.values():
         if "healthcheck" in service:  # podman-compose 1.0.3 mangles the exec form
             service["healthcheck"]["test"] = ["CMD-SHELL", shlex.join(service["healthcheck"]["test"][1:])]
-    compose["volumes"] = {k: v for k, v in compose["volumes"].items() if k not in ("pgdata", "redisdata")}
-    return {key: value for key, value in compose.items() if not key.startswith("x-")}
+    used = {volume.split(":")[0] for service in services.values() for volume in service.get("volumes", [])}
+    compose["volumes"] = {k: v for k, v in compose["volumes"].items() if k in used} or None
+    return {key: value for key, value in compose.items() if not key.startswith("x-") and value is not None}
 
 
 def on_host_network(service: dict, hostname: str) -> None:
