@@ -81,6 +81,7 @@ build_images() {  # the project's Dockerfile as a Docker host builds it, but fro
               --build-arg PIP_NO_INDEX=1 --build-arg PIP_FIND_LINKS=/wheels)
   podman build "${args[@]}" -t "$APP" "$ROOT" >>"$LOG"
   podman build "${args[@]}" --build-arg "MOTO_SPEC=$MOTO" -t "$S3" -f "$HERE/s3.Containerfile" "$HERE" >>"$LOG"
+  podman image prune -f >>"$LOG"  # the builds' leftovers: images no tag uses (the layer cache stays)
 }
 
 in_app() { podman run --rm --network host --no-healthcheck "$APP" python -c "$1"; }
@@ -157,7 +158,7 @@ down() {
   podman ps -aq --filter "label=io.podman.compose.project=$PROJECT" | xargs -r podman rm -f -t 20 >/dev/null
   podman network rm -f "${PROJECT}_default" >/dev/null 2>&1 || true  # made by podman-compose, unused
   if [ "${1:-}" = --purge ]; then
-    podman volume rm -f "${PROJECT}_artifacts" "${PROJECT}_miniodata" >/dev/null
+    podman volume ls -q | grep "^${PROJECT}_" | xargs -r podman volume rm -f >/dev/null
     in_app "
 import psycopg, redis
 redis.Redis.from_url('$BROKER_URL').flushdb()
