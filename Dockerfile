@@ -29,9 +29,10 @@ COPY frontend ./frontend
 # Editable, so migrations/ and frontend/ are found next to the package as in a checkout.
 RUN pip install -e . --no-deps
 
+# /data: the embedded default's data dir. With GUIDED_SFM_ARTIFACTS_URL (compose) it holds nothing of
+# a project and jobs work in the temp dir's scratch, so it is no volume: mount one where it is used.
 RUN useradd --create-home --uid 1000 app && mkdir -p /data && chown app /data
 USER app
-VOLUME ["/data"]
 EXPOSE 8000
 HEALTHCHECK --interval=10s --timeout=5s --start-period=20s --retries=12 \
     CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/api/v1/health', timeout=3)"]

@@ -1,14 +1,18 @@
 """The REST loop against a running compose stack (`make compose-up` first), then proof that the
-jobs ran in the worker container.
+jobs ran in worker containers and the project lives in the store.
 
     .venv/bin/python deploy/compose_loop.py [--url http://127.0.0.1:8000] [--layout NAME]
 
 Signs up a fresh user, creates a project, uploads the images of `guided-sfm sample` (a zip),
 reconstructs, moves one camera in an edit set, applies it with remap; waits for each job, printing
 its stage and progress. Then asks the engine (docker where `docker info` works, else podman) for
-the worker container's hostname, the Celery workers that answer on the stack's broker (all of
-them must be that container), its process list, and its log's finished tasks. The last stdout line
-is a JSON summary; the exit status is 0 only when every job succeeded and every check held.
+the worker containers (one or more): their hostnames, which of them ran each job (its log's
+"job N (KIND) produced version V" line, V the job's version), the Celery workers answering on the
+stack's broker (all must be worker containers), the files each app container (api and workers)
+keeps in its data and temp dirs;
+and, with an S3 store, the project's objects in it (through the api container's boto3). The last
+stdout line is a JSON summary; the exit status is 0 only when every job succeeded and every check
+held (`failures` lists the rest).
 """
 
 from __future__ import annotations
@@ -17,7 +21,9 @@ import argparse
 import io
 import json
 import os
+import re
 import secrets
+import socket
 import subprocess
 import sys
 import tempfile
@@ -32,7 +38,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PROJECT = "guided-sfm"  # docker-compose.yml's name
-RUN_JOB_DONE = "succeeded"  # Celery's log line for a finished task
 JOB_TIMEOUT = 1800.0
 
 
@@ -146,31 +151,80 @@ class Engine:
             raise SystemExit(f"{self.tool} {' '.join(args[:2])}: {done.stderr.strip()}")
         return done.stdout + done.stderr
 
-    def container(self, service: str) -> str:
+    def containers(self, service: str) -> list[str]:
+        """The running containers of a service (several once workers are scaled)."""
         if self.docker:
-            return self.run("compose", "ps", "-q", service).split()[0]
-        return f"{PROJECT}_{service}_1"
+            return self.run("compose", "ps", "-q", service).split()
+        labels = [f"label=io.podman.compose.project={PROJECT}", f"label=com.docker.compose.service={service}"]
+        return self.run("ps", *[arg for label in labels for arg in ("--filter", label)],
+                        "--format", "{{.Names}}").split()
 
-    def python(self, service: str, code: str) -> str:
-        return self.run("exec", self.container(service), "python", "-c", code).strip()
+    def python(self, container: str, code: str) -> str:
+        return self.run("exec", container, "python", "-c", code).strip()
 
 
 PING = ("from guided_sfm.settings import Settings; from worker.celery_app import make_celery; import json; "
         "print(json.dumps([n for r in make_celery(Settings.from_env()).control.ping(timeout=5) for n in r]))")
+HOSTNAME = "import socket; print(socket.gethostname())"
+# Files a container of the app holds outside the store: its data dir and its temp dir (scratch).
+LEFT_FILES = ("import os, tempfile, json; print(json.dumps(sorted(os.path.join(d, f) for top in "
+              "(os.environ.get('GUIDED_SFM_DATA_DIR', '/data'), tempfile.gettempdir()) "
+              "for d, _, fs in os.walk(top) for f in fs)))")
 
 
-def finished_tasks(engine: Engine) -> int:
-    return sum(RUN_JOB_DONE in line for line in engine.run("logs", engine.container("worker")).splitlines())
+def produced_versions(log: str) -> dict[int, int]:
+    """Job id -> version id, from the runner's "job N (KIND) produced version V" lines of a worker's log."""
+    found = re.finditer(r"\bjob (\d+) \(\w+\) produced version (\d+)", log)
+    return {int(match.group(1)): int(match.group(2)) for match in found}
 
 
-def container_checks(engine: Engine, finished_before: int) -> dict:
-    worker = engine.container("worker")
-    hostname = engine.python("worker", "import socket; print(socket.gethostname())")
-    answering = json.loads(engine.python("api", PING).splitlines()[-1])
-    processes = engine.run("top", worker)
-    return {"engine": engine.tool, "worker_container": worker, "worker_hostname": hostname,
-            "broker_workers": answering, "worker_processes": processes.strip().splitlines(),
-            "tasks_finished_in_worker_log": finished_tasks(engine) - finished_before}
+def worker_of_each_job(engine: Engine, jobs: list[dict]) -> dict[int, str | None]:
+    """The worker container whose log says it produced each job's version: the job ran there."""
+    ran_in: dict[int, str | None] = {job["id"]: None for job in jobs}
+    version_of = {job["id"]: job["version_id"] for job in jobs}
+    for container in engine.containers("worker"):
+        for job_id, version_id in produced_versions(engine.run("logs", container)).items():
+            if job_id in ran_in and version_of[job_id] == version_id:
+                ran_in[job_id] = container
+    return ran_in
+
+
+def container_checks(engine: Engine, jobs: list[dict]) -> dict:
+    workers = engine.containers("worker")
+    if not workers:
+        raise SystemExit(f"no running worker container ({engine.tool})")
+    hostnames = {container: engine.python(container, HOSTNAME) for container in workers}
+    api = engine.containers("api")[0]
+    answering = json.loads(engine.python(api, PING).splitlines()[-1])
+    return {"engine": engine.tool, "worker_hostnames": hostnames, "broker_workers": answering,
+            "job_containers": worker_of_each_job(engine, jobs),
+            "files_left": {c: json.loads(engine.python(c, LEFT_FILES)) for c in [api, *workers]},
+            "worker_processes": engine.run("top", workers[0]).strip().splitlines()}
+
+
+def store_keys(engine: Engine, project_id: int) -> dict[str, int] | None:
+    """Objects of the project in the S3 store by kind (images, versions, ...); None without S3."""
+    api = engine.containers("api")[0]
+    code = STORE_KEYS.replace("PROJECT_ID", str(project_id))
+    out = engine.python(api, code).splitlines()[-1]
+    return json.loads(out)
+
+
+STORE_KEYS = """
+import collections, json, os, urllib.parse
+url = os.environ.get('GUIDED_SFM_ARTIFACTS_URL', '')
+if not url.startswith('s3://'):
+    print('null'); raise SystemExit
+import boto3
+parts = urllib.parse.urlsplit(url)
+prefix = (parts.path.strip('/') + '/' if parts.path.strip('/') else '') + 'projects/PROJECT_ID/'
+s3 = boto3.client('s3', endpoint_url=os.environ.get('GUIDED_SFM_S3_ENDPOINT_URL') or None)
+kinds = collections.Counter()
+for page in s3.get_paginator('list_objects_v2').paginate(Bucket=parts.netloc, Prefix=prefix):
+    for item in page.get('Contents', []):
+        kinds[item['Key'][len(prefix):].split('/')[0]] += 1
+print(json.dumps(kinds))
+"""
 
 
 def job_summary(job: dict) -> dict:
@@ -182,22 +236,40 @@ def job_summary(job: dict) -> dict:
             "run_seconds": ran, "wall_seconds": job["wall_seconds"]}
 
 
+def failures(result: dict, checks: dict, store: dict[str, int] | None) -> list[str]:
+    """What did not hold: every job succeeded in a worker container that the broker knows, and with
+    an S3 store, the project is in the store and nothing of it is left in the app's containers."""
+    found = []
+    if [job["state"] for job in result["jobs"]] != ["succeeded", "succeeded"]:
+        found.append("a job did not succeed")
+    hostnames = set(checks["worker_hostnames"].values())
+    if socket.gethostname() in hostnames:
+        found.append("a worker container has this machine's hostname: cannot be told apart")
+    if not checks["broker_workers"] or any(name.split("@", 1)[1] not in hostnames
+                                           for name in checks["broker_workers"]):
+        found.append(f"broker workers {checks['broker_workers']} are not all worker containers {hostnames}")
+    found += [f"job {job_id} ended in no worker container's log"
+              for job_id, container in checks["job_containers"].items() if container is None]
+    if store is not None:
+        if store.get("images", 0) < result.get("images", 1) or not store.get("versions"):
+            found.append(f"the store lacks the project's images or versions: {store}")
+        found += [f"{container} keeps {len(files)} files outside the store: {files[:3]}"
+                  for container, files in checks["files_left"].items() if files]
+    return found
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--url", default=f"http://127.0.0.1:{os.environ.get('GUIDED_SFM_PORT', '8000')}")
     parser.add_argument("--layout", default=None, help="a `guided-sfm sample --layout` (default: its own)")
     args = parser.parse_args()
     started, engine = time.monotonic(), Engine()
-    before = finished_tasks(engine)
     result = rest_loop(Api(args.url), args.layout)
-    checks = container_checks(engine, before)
-    jobs_ok = [job["state"] for job in result["jobs"]] == ["succeeded", "succeeded"]
-    workers = checks["broker_workers"]
-    in_container = (bool(workers) and all(name.endswith("@" + checks["worker_hostname"]) for name in workers)
-                    and checks["tasks_finished_in_worker_log"] >= len(result["jobs"]))
-    summary = {**result, "jobs": [job_summary(job) for job in result["jobs"]],
-               **checks, "loop_seconds": round(time.monotonic() - started, 1),
-               "ok": jobs_ok and in_container}
+    checks = container_checks(engine, result["jobs"])
+    store = store_keys(engine, result["project"])
+    problems = failures(result, checks, store)
+    summary = {**result, "jobs": [job_summary(job) for job in result["jobs"]], **checks, "store_keys": store,
+               "loop_seconds": round(time.monotonic() - started, 1), "failures": problems, "ok": not problems}
     print(json.dumps(summary))
     return 0 if summary["ok"] else 1
 

@@ -6,6 +6,7 @@
 # throwaway container of the base; the builds run with --network none). Both are cached outside
 # the repository, so a second `up` takes under a minute.
 #   deploy/podman/stack.sh up | down [--purge]     (make compose-up / make compose-down)
+#   deploy/podman/stack.sh worker NAME             one more worker container, as on another host
 # --purge also removes the stack's volumes, its database and its Redis database number.
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -14,8 +15,10 @@ CACHE=${GUIDED_SFM_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/guided-sfm}/podman
 PROJECT=guided-sfm
 PORT=${GUIDED_SFM_PORT:-8000}
 S3_PORT=${GUIDED_SFM_S3_PORT:-9000}
-DATABASE=${GUIDED_SFM_LOCAL_DATABASE:-guided_sfm_compose}
-BROKER_URL=${GUIDED_SFM_LOCAL_BROKER_URL:-redis://127.0.0.1:6379/11}
+# This machine's share of its Postgres and Redis (the environment may override it).
+set -a && . "$HERE/local.env" && set +a
+DATABASE=$GUIDED_SFM_LOCAL_DATABASE
+BROKER_URL=$GUIDED_SFM_LOCAL_BROKER_URL
 PG_URL=postgresql+psycopg://postgres@127.0.0.1:5432/$DATABASE
 BASE=localhost/guided-sfm-base:bookworm
 APP=localhost/guided-sfm:latest
@@ -78,6 +81,7 @@ build_images() {  # the project's Dockerfile as a Docker host builds it, but fro
               --build-arg PIP_NO_INDEX=1 --build-arg PIP_FIND_LINKS=/wheels)
   podman build "${args[@]}" -t "$APP" "$ROOT" >>"$LOG"
   podman build "${args[@]}" --build-arg "MOTO_SPEC=$MOTO" -t "$S3" -f "$HERE/s3.Containerfile" "$HERE" >>"$LOG"
+  podman image prune -f >>"$LOG"  # the builds' leftovers: images no tag uses (the layer cache stays)
 }
 
 in_app() { podman run --rm --network host --no-healthcheck "$APP" python -c "$1"; }
@@ -98,13 +102,15 @@ compose() {
 
 port_free() { ! (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
 
-wait_healthy() {  # podman runs no healthcheck timers without systemd: run the checks here
-  local name=${PROJECT}_$1_1 deadline=$((SECONDS + $2))
+wait_healthy() { wait_healthy_named "${PROJECT}_$1_1" "$2"; }
+
+wait_healthy_named() {  # podman runs no healthcheck timers without systemd: run the checks here
+  local name=$1 deadline=$((SECONDS + $2))
   until podman healthcheck run "$name" >/dev/null 2>&1; do
     [ $SECONDS -lt "$deadline" ] || die "$name not healthy after $2 s (see: podman logs $name)"
     sleep 2
   done
-  say "$1 healthy"
+  say "$name healthy"
 }
 
 up() {
@@ -125,6 +131,21 @@ up() {
   say "up: http://127.0.0.1:$PORT/ (log: $LOG)"
 }
 
+extra_worker() {  # README's "worker on another host", here: its own container, no volume, same services
+  local name=${PROJECT}-worker-${1:?a name}
+  podman image exists "$APP" || die "no $APP: run 'make compose-up' first"
+  [ -f "$CACHE/compose.yml" ] || compose_file
+  local env=() key
+  [ -f "$ROOT/.env" ] && set -a && . "$ROOT/.env" && set +a  # the key `make compose-up` generated
+  while IFS= read -r key; do env+=(-e "$key"); done < <(python3 "$HERE/local_compose.py" --env worker "$CACHE/compose.yml")
+  podman run -d --name "$name" --hostname "$name" --network host --cpus 2 --restart unless-stopped \
+    --health-cmd "python -m worker.health" --health-interval 30s --health-start-period 30s \
+    --label "io.podman.compose.project=$PROJECT" --label com.docker.compose.service=worker \
+    "${env[@]}" "$APP" guided-sfm worker >>"$LOG" 2>&1
+  wait_healthy_named "$name" 120
+  say "worker $name started (podman logs $name)"
+}
+
 compose_file() {
   python3 "$HERE/local_compose.py" "$ROOT/docker-compose.yml" "$PG_URL" "$BROKER_URL" "$S3_PORT" "$PORT" \
     >"$CACHE/compose.yml"
@@ -134,9 +155,10 @@ down() {
   command -v podman-compose >/dev/null || { say "podman-compose is not installed: nothing runs"; return; }
   compose_file
   compose down -t 20
+  podman ps -aq --filter "label=io.podman.compose.project=$PROJECT" | xargs -r podman rm -f -t 20 >/dev/null
   podman network rm -f "${PROJECT}_default" >/dev/null 2>&1 || true  # made by podman-compose, unused
   if [ "${1:-}" = --purge ]; then
-    podman volume rm -f "${PROJECT}_artifacts" "${PROJECT}_miniodata" >/dev/null
+    podman volume ls -q | grep "^${PROJECT}_" | xargs -r podman volume rm -f >/dev/null
     in_app "
 import psycopg, redis
 redis.Redis.from_url('$BROKER_URL').flushdb()
@@ -150,5 +172,6 @@ with psycopg.connect('host=127.0.0.1 user=postgres dbname=postgres', autocommit=
 case "${1:-}" in
   up) up ;;
   down) shift; down "$@" ;;
-  *) die "usage: $0 up | down [--purge]" ;;
+  worker) extra_worker "${2:-}" ;;
+  *) die "usage: $0 up | down [--purge] | worker NAME" ;;
 esac
