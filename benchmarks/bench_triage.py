@@ -118,15 +118,21 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _table(report: dict) -> str:
-    lines = ["layout     wrong raised recall precision runs  proposals: fixed models act/fixed"
-             "   per-camera user: fixed act/fixed   triage s"]
+    """Detection per layout, then one line per simulated user's round."""
+    lines = ["layout     wrong raised recall precision runs triage_s   user: fixed models "
+             "drags keys accepts act/fixed"]
     for name, row in report["layouts"].items():
-        d, p, w = row["detection"], row.get("proposals", {}), row.get("wrong", {})
-        lines.append(
-            f"{name:<10} {d['wrong']:>5} {d['raised']:>6} {_f(d['recall']):>6} {_f(d['precision']):>9}"
-            f" {d['runs']:>4}  {p.get('fixed', '-')!s:>9}/{p.get('of', '-')!s:<3} {p.get('models', '-')!s:>3}"
-            f" {_f(p.get('actions_per_fixed')):>9}   {w.get('fixed', '-')!s:>20}/{w.get('of', '-')!s:<3}"
-            f" {_f(w.get('actions_per_fixed')):>9}   {d['triage_seconds']:>8}")
+        d = row["detection"]
+        lines.append(f"{name:<10} {d['wrong']:>5} {d['raised']:>6} {_f(d['recall']):>6} "
+                     f"{_f(d['precision']):>9} {d['runs']:>4} {d['triage_seconds']:>8}")
+        for user, r in row.items():
+            if user == "detection":
+                continue
+            if "error" in r:
+                lines.append(f"{'':>52}{user}: {r['error']}")
+                continue
+            lines.append(f"{'':>52}{user}: {r['fixed']}/{r['of']} {r['models']} {r['drags']} "
+                         f"{r['key_presses']} {r['accepts']} {_f(r['actions_per_fixed'])}")
     for name, row in report["right"].items():
         lines.append(f"right: {name}: {row['raised']} of {row['cameras']} raised, "
                      f"max score {row['max_score']:.2f}, {row['runs']} runs")

@@ -81,3 +81,14 @@ def test_a_user_who_only_accepts_proposals_fixes_the_fold(tmp_path):
     assert summary["actions_per_fixed"] == pytest.approx(summary["accepts"] / summary["fixed"],
                                                          abs=0.01)
     assert result["rounds"][1]["actions"]["accepts"] == summary["accepts"]
+
+
+@pytest.mark.slow
+def test_the_split_layout_joins_with_one_group_move(tmp_path):
+    # COLMAP maps the split layout as two models (nothing links its legs); the user drags the
+    # second as one piece, and applying joins it (core/join_groups.py)
+    result = run_demo(layout="split", rounds=1, out_dir=tmp_path, user="group")
+    first, summary = result["rounds"][0], result["summary"]
+    assert first["num_models"] >= 2, "COLMAP must split the layout"
+    assert summary["final_models"] == 1 and summary["drags"] == first["num_models"] - 1
+    assert summary["final_wrong"] == 0 and summary["fixed"] >= 0.8 * summary["initially_unregistered"]

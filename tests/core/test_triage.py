@@ -136,3 +136,12 @@ def test_a_model_no_pair_links_to_the_rest_gets_no_proposal():
     cut = {k: n for k, n in data.pairs.items() if (k[0] > 6) == (k[1] > 6)}
     (run,) = triage(TriageInput(data.scene, cut, data.shared_points)).runs
     assert run.image_ids == [7, 8, 9, 10] and run.proposal is None and "no verified pair" in run.reason
+
+
+def test_true_neighbours_the_model_cannot_hold_break_even_a_short_step():
+    walk = [(float(i), 0.0, 90.0) for i in range(12)]
+    placed = walk[:7] + [(x + 1.5, y, yaw) for x, y, yaw in walk[7:]]  # 2.5 steps: not long
+    data = capture(walk, placed)
+    steps = signals.steps_between(data.scene.cameras, data.pairs, data.shared_points)
+    assert steps[6].length_steps < signals.BREAK_STEPS and steps[6].conflict and steps[6].breaks
+    assert raised(triage(data)) == set(range(7, 12))
