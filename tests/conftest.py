@@ -40,7 +40,8 @@ def create_database(tmp_dir: Path) -> tuple[str, callable]:
         url = f"sqlite:///{tmp_dir / f'test-{uuid.uuid4().hex[:8]}.db'}"
         upgrade(url)
         return url, lambda: None
-    name = f"gsfm_test_{uuid.uuid4().hex[:12]}"
+    # a shared server: GUIDED_SFM_TEST_DATABASE_PREFIX keeps each user's databases apart
+    name = f"{os.environ.get('GUIDED_SFM_TEST_DATABASE_PREFIX', 'gsfm_test_')}{uuid.uuid4().hex[:12]}"
     admin = make_engine(make_url(base).set(database="postgres").render_as_string(False),
                         isolation_level="AUTOCOMMIT")
     with admin.connect() as conn:

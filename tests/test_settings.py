@@ -49,3 +49,20 @@ def test_a_bad_number_names_its_variable(tmp_path, key):
     for raw in ("lots", "1.5x") if expected == "a number" else ("lots", "1.5"):
         with pytest.raises(SettingsError, match=f"GUIDED_SFM_{key} must be {expected}, got '{raw}'"):
             Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path), f"GUIDED_SFM_{key}": raw})
+
+
+def test_the_artifact_store_is_the_data_dir_unless_an_s3_url_is_set(tmp_path):
+    from guided_sfm.storage import ArtifactStore, open_store
+    from guided_sfm.storage.s3 import S3Store
+
+    plain = Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path)})
+    assert isinstance(open_store(plain), ArtifactStore) and plain.artifacts_url == ""
+    s3 = Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path),
+                            "GUIDED_SFM_ARTIFACTS_URL": "s3://bucket/some/prefix",
+                            "GUIDED_SFM_S3_ENDPOINT_URL": "http://127.0.0.1:9000"})
+    store = open_store(s3)
+    assert isinstance(store, S3Store) and (store.bucket, store.prefix) == ("bucket", "some/prefix")
+    assert store.client.meta.endpoint_url == "http://127.0.0.1:9000"
+    for bad in ("bucket/prefix", "s3:///prefix", "file:///tmp/x"):
+        with pytest.raises(SettingsError, match="ARTIFACTS_URL"):
+            Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path), "GUIDED_SFM_ARTIFACTS_URL": bad})
