@@ -16,8 +16,8 @@ ARG PIP_NO_INDEX
 ARG PIP_FIND_LINKS
 
 WORKDIR /app
-# The dependencies first, in their own layer: a change of code does not reinstall them.
-COPY pyproject.toml README.md ./
+# The dependencies first, in their own layer: a change of code or docs does not reinstall them.
+COPY pyproject.toml ./
 RUN python3 -m venv /opt/venv \
     && python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['project']['dependencies']))" \
        > /tmp/requirements.txt \
@@ -26,6 +26,7 @@ COPY services ./services
 COPY worker ./worker
 COPY migrations ./migrations
 COPY frontend ./frontend
+COPY README.md ./
 # Editable, so migrations/ and frontend/ are found next to the package as in a checkout.
 RUN pip install -e . --no-deps
 

@@ -9,10 +9,9 @@ its stage and progress. Then asks the engine (docker where `docker info` works, 
 the worker containers (one or more): their hostnames, which of them ran each job (its log's
 "job N (KIND) produced version V" line, V the job's version), the Celery workers answering on the
 stack's broker (all must be worker containers), the files each app container (api and workers)
-keeps in its data and temp dirs;
-and, with an S3 store, the project's objects in it (through the api container's boto3). The last
-stdout line is a JSON summary; the exit status is 0 only when every job succeeded and every check
-held (`failures` lists the rest).
+keeps in its data and temp dirs, and, with an S3 store, the project's objects in it (through the
+api container's boto3). The last stdout line is a JSON summary; the exit status is 0 only when
+every job succeeded and every check held (`failures` lists the rest).
 """
 
 from __future__ import annotations

@@ -121,6 +121,8 @@ def test_dockerfile_ships_what_the_commands_need():
     assert "pip install -e ." in dockerfile and "GUIDED_SFM_DATA_DIR=/data" in dockerfile
     assert "ARG BASE_IMAGE=python:3.11-slim\nFROM ${BASE_IMAGE}" in dockerfile
     assert not re.search(r"^VOLUME", dockerfile, re.M)  # no anonymous volume per container
+    # the dependencies' layer sees pyproject.toml alone: an edit of code or docs keeps it cached
+    assert re.search(r"^COPY pyproject.toml ./\nRUN python3 -m venv", dockerfile, re.M)
     assert re.search(r"^USER app$", dockerfile, re.M) and "useradd --create-home --uid 1000 app" in dockerfile
     assert re.search(r"^HEALTHCHECK .*\n.*/api/v1/health", dockerfile, re.M)
     assert not re.search(r"^ARG PIP_\w+=", dockerfile, re.M)  # the index, unless a build says otherwise
