@@ -32,6 +32,7 @@ def routes(pid: int, vid: int, eid: int, jid: int, iid: int, edit: dict, cid: in
         ("GET", f"{p}/versions", VIEWER, {}),
         ("GET", f"{p}/versions/{vid}/scene", VIEWER, {}),
         ("GET", f"{p}/versions/{vid}/pairs", VIEWER, {}),
+        ("GET", f"{p}/versions/{vid}/suspects", VIEWER, {}),
         ("POST", f"{p}/versions/{vid}/restore", EDITOR, {}),
         ("GET", f"{p}/versions/{vid}/export", VIEWER, {}),
         ("GET", f"{p}/versions/{vid}/compare?to={vid}", VIEWER, {}),
