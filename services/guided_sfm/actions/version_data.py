@@ -16,11 +16,11 @@ from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.topdown import decimate_points
 from guided_sfm.core.triage.of_workspace import triage_workspace
-from guided_sfm.core.workspace import DATABASE, EDITS, META, PRUNING, SCENE, SPARSE, Workspace
+from guided_sfm.core.workspace import DATABASE, EDITS, JOINED, META, PRUNING, SCENE, SPARSE, Workspace
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import Store
 
-READ = (DATABASE, SPARSE + "/", SCENE, META, EDITS, PRUNING)  # all a reader needs: not the vocab tree
+READ = (DATABASE, SPARSE + "/", SCENE, META, EDITS, PRUNING, JOINED)  # all a reader needs: not the vocab tree
 
 # The point layer's level of detail, chosen here: a scene keeps up to 20,000 points; above
 # LARGE_SCENE_CAMERAS cameras the editor's first draw gets half of them (grid-decimated), and a
@@ -143,7 +143,7 @@ def compare(session: Session, store: Store, version: Version, other: Version) ->
 
 def _edited(store: Store, version: Version) -> set[str]:
     """Names of the images the round that made the version edited."""
-    with store.reading(version.path, only=(DATABASE, EDITS)) as root:
+    with store.reading(version.path, only=(DATABASE, EDITS, JOINED)) as root:  # see touched_images
         return Workspace(root).touched_names()
 
 
