@@ -2,6 +2,7 @@
 S3 (moto's server over HTTP) equals what it reads of the same version in the data dir. Catches a
 file the S3 reader forgets to fetch (version_data.READ and the other `only=` lists)."""
 
+import tempfile
 from types import SimpleNamespace
 
 import pytest
@@ -18,6 +19,7 @@ def on_s3(reconstructed, session, store, moto_server, monkeypatch, tmp_path):
     for name, value in CREDENTIALS.items():
         monkeypatch.setenv(name, value)
     monkeypatch.setenv("TMPDIR", str(tmp_path))
+    monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR: the store's scratch goes there
     s3 = S3Store.from_url(f"s3://{moto_server.new_bucket()}/artifacts", moto_server.url)
     local = session.get(Version, reconstructed.vid)
     key = s3.publish(local.project_id, store.version_dir(local.path))
