@@ -49,17 +49,3 @@ def test_a_bad_number_names_its_variable(tmp_path, key):
     for raw in ("lots", "1.5x") if expected == "a number" else ("lots", "1.5"):
         with pytest.raises(SettingsError, match=f"GUIDED_SFM_{key} must be {expected}, got '{raw}'"):
             Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path), f"GUIDED_SFM_{key}": raw})
-
-
-def test_the_s3_store_settings_are_checked_where_they_are_read(tmp_path):
-    env = {"GUIDED_SFM_DATA_DIR": str(tmp_path), "GUIDED_SFM_ARTIFACTS_URL": "s3://bucket/some/prefix",
-           "GUIDED_SFM_S3_ENDPOINT_URL": "http://127.0.0.1:9000"}
-    settings = Settings.from_env(env)
-    assert (settings.artifacts_url, settings.s3_endpoint_url) == ("s3://bucket/some/prefix",
-                                                                  "http://127.0.0.1:9000")
-    assert Settings.from_env({"GUIDED_SFM_DATA_DIR": str(tmp_path)}).artifacts_url == ""  # the data dir
-    for key, value in [("ARTIFACTS_URL", "/data/artifacts"), ("ARTIFACTS_URL", "s3:///no-bucket"),
-                       ("ARTIFACTS_URL", "gs://bucket"), ("S3_ENDPOINT_URL", "minio:9000"),
-                       ("S3_ENDPOINT_URL", "ftp://minio:9000")]:
-        with pytest.raises(SettingsError, match=key):
-            Settings.from_env({**env, f"GUIDED_SFM_{key}": value})
