@@ -87,6 +87,9 @@ class Settings:
                 f"{PREFIX}THREADS, {PREFIX}MAX_UPLOAD_MB and {PREFIX}MAX_IMAGE_MPX must be >= 1")
         if self.artifacts_url:
             _check_artifacts_url(self.artifacts_url)
+        if self.s3_endpoint_url and urlsplit(self.s3_endpoint_url).scheme not in ("http", "https"):
+            raise SettingsError(f"{PREFIX}S3_ENDPOINT_URL must be http(s)://HOST[:PORT], "
+                                f"got {self.s3_endpoint_url!r}")
         if self.secret_key is not None and len(self.secret_key) < 16:
             raise SettingsError(f"{PREFIX}SECRET_KEY must be at least 16 characters")
 

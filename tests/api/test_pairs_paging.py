@@ -44,3 +44,24 @@ def test_the_default_order_and_the_whole_list_are_v1s(client, reconstructed):
 def test_an_unknown_order_is_422(client, reconstructed):
     assert client.get(pairs_url(reconstructed, "?order=name"),
                       headers=reconstructed.owner).status_code == 422
+
+
+def test_paging_reads_the_version_once(client, reconstructed, store, monkeypatch):
+    """The matches panel pages through a camera's pairs: on S3 every read of the version fetches
+    its database, so the pairs of a version are read once and each page filtered from them."""
+    s = reconstructed
+    reads = []
+    original = type(store).reading
+
+    def counted(self, version, only=None):
+        reads.append(version)
+        return original(self, version, only)
+
+    whole = client.get(pairs_url(s, ""), headers=s.owner).json()
+    monkeypatch.setattr(type(store), "reading", counted)
+    image = busiest_image(client, s)
+    pages = [client.get(pairs_url(s, f"?image_id={image}&order=inliers&limit=2&offset={o}"),
+                        headers=s.owner).json() for o in (0, 2, 4)]
+    assert reads == []  # the first request above read it; none of these did
+    mine = [p for p in whole if image in (p["image_id1"], p["image_id2"])]
+    assert sum(pages, []) == sorted(mine, key=lambda p: -p["num_inliers"])[:6]

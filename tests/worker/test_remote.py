@@ -9,6 +9,9 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
 import httpx
 import pytest
@@ -20,11 +23,12 @@ from tests.worker.test_serve import free_port
 START_TIMEOUT = 120.0  # migrations and imports on a loaded 2-core machine
 
 
-@pytest.fixture
-def served(tmp_path):
-    """The URL of a `guided-sfm serve` of this test's own, stopped with SIGTERM after."""
+@contextmanager
+def serving(tmp_path: Path, **settings: str) -> Iterator[str]:
+    """The URL of a `guided-sfm serve` of the caller's own (its env without GUIDED_SFM_* but these
+    settings), stopped with SIGTERM after."""
     port = free_port()
-    env = {k: v for k, v in os.environ.items() if not k.startswith("GUIDED_SFM_")}
+    env = {k: v for k, v in os.environ.items() if not k.startswith("GUIDED_SFM_")} | settings
     with open(tmp_path / "serve.log", "wb") as log:
         serve = subprocess.Popen([sys.executable, "-m", "guided_sfm.cli", "serve", "--port", str(port),
                                   "--data-dir", str(tmp_path / "data")], env=env,
@@ -41,9 +45,17 @@ def served(tmp_path):
         serve.kill()
         raise AssertionError("serve did not answer:\n" + (tmp_path / "serve.log").read_text()[-2000:])
     print(f"serve answered after {time.monotonic() - started:.1f} s")
-    yield url
-    serve.send_signal(signal.SIGTERM)
-    serve.wait(timeout=60)
+    try:
+        yield url
+    finally:
+        serve.send_signal(signal.SIGTERM)
+        serve.wait(timeout=60)
+
+
+@pytest.fixture
+def served(tmp_path):
+    with serving(tmp_path) as url:
+        yield url
 
 
 def remote(url: str, token: str, *args: str) -> subprocess.CompletedProcess:

@@ -5,11 +5,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import signal
-import subprocess
-import sys
-import time
 
 import httpx
 import numpy as np
@@ -18,8 +13,7 @@ import pytest
 
 from guided_sfm.client import Client
 from tests.factories import PASSWORD
-from tests.worker.test_remote import START_TIMEOUT, ok, remote
-from tests.worker.test_serve import free_port
+from tests.worker.test_remote import ok, remote, serving
 
 CAP_MB = 1
 
@@ -27,27 +21,8 @@ CAP_MB = 1
 @pytest.fixture
 def capped(tmp_path):
     """A `guided-sfm serve` of this test's own with GUIDED_SFM_MAX_UPLOAD_MB=1."""
-    port = free_port()
-    env = {k: v for k, v in os.environ.items() if not k.startswith("GUIDED_SFM_")}
-    env["GUIDED_SFM_MAX_UPLOAD_MB"] = str(CAP_MB)
-    with open(tmp_path / "serve.log", "wb") as log:
-        serve = subprocess.Popen([sys.executable, "-m", "guided_sfm.cli", "serve", "--port", str(port),
-                                  "--data-dir", str(tmp_path / "data")], env=env,
-                                 stdout=subprocess.DEVNULL, stderr=log)
-    url = f"http://127.0.0.1:{port}"
-    started = time.monotonic()
-    while time.monotonic() - started < START_TIMEOUT:
-        try:
-            if httpx.get(url + "/api/v1/health", timeout=2).status_code == 200:
-                break
-        except httpx.HTTPError:
-            time.sleep(0.3)
-    else:
-        serve.kill()
-        raise AssertionError("serve did not answer:\n" + (tmp_path / "serve.log").read_text()[-2000:])
-    yield url
-    serve.send_signal(signal.SIGTERM)
-    serve.wait(timeout=60)
+    with serving(tmp_path, GUIDED_SFM_MAX_UPLOAD_MB=str(CAP_MB)) as url:
+        yield url
 
 
 def photos(folder, count: int) -> list:

@@ -16,11 +16,12 @@ from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.topdown import decimate_points
 from guided_sfm.core.triage.of_workspace import triage_workspace
-from guided_sfm.core.workspace import DATABASE, EDITS, META, PRUNING, SCENE, SPARSE, Workspace
+from guided_sfm.core.workspace import DATABASE, EDITS, JOINED, META, PRUNING, SCENE, SPARSE, Workspace
+from guided_sfm.db import queries
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import Store
 
-READ = (DATABASE, SPARSE + "/", SCENE, META, EDITS, PRUNING)  # all a reader needs: not the vocab tree
+READ = (DATABASE, SPARSE + "/", SCENE, META, EDITS, PRUNING, JOINED)  # all a reader needs: not the vocab tree
 
 # The point layer's level of detail, chosen here: a scene keeps up to 20,000 points; above
 # LARGE_SCENE_CAMERAS cameras the editor's first draw gets half of them (grid-decimated), and a
@@ -104,13 +105,23 @@ def _suspects(session: Session, store: Store, version: Version) -> dict[str, Any
 suspects = _VersionCache(_suspects).get
 
 
-def pairs(session: Session, store: Store, version: Version, image_id: int | None) -> list[dict]:
+def _verified(_session: Session, store: Store, version: Version) -> tuple[dict[str, int], list]:
+    """(COLMAP image id by name, sorted verified pairs with inliers) of a version: it never changes."""
     with store.reading(version.path, only=(DATABASE,)) as root:
         workspace = Workspace(root)
-        ids = IdMap.load(session, version.project_id, workspace)
-        verified = workspace.verified_pairs()
+        return workspace.image_ids(), sorted(workspace.verified_pairs().items())
+
+
+# the matches panel pages through one camera's pairs: read a version's database once, not per
+# page (from S3 a read fetches the whole database); the REST ids come from the rows each time
+_verified_cache = _VersionCache(_verified, size=8).get
+
+
+def pairs(session: Session, store: Store, version: Version, image_id: int | None) -> list[dict]:
+    colmap_by_name, verified = _verified_cache(session, store, version)
+    ids = IdMap(queries.image_ids_by_name(session, version.project_id), colmap_by_name)
     return [{"image_id1": id1, "image_id2": id2, "num_inliers": inliers}
-            for (id1, id2), inliers in ids.pairs_with(sorted(verified.items()))
+            for (id1, id2), inliers in ids.pairs_with(verified)
             if image_id is None or image_id in (id1, id2)]
 
 
@@ -143,7 +154,7 @@ def compare(session: Session, store: Store, version: Version, other: Version) ->
 
 def _edited(store: Store, version: Version) -> set[str]:
     """Names of the images the round that made the version edited."""
-    with store.reading(version.path, only=(DATABASE, EDITS)) as root:
+    with store.reading(version.path, only=(DATABASE, EDITS, JOINED)) as root:  # see touched_images
         return Workspace(root).touched_names()
 
 
