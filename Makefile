@@ -23,7 +23,7 @@ demo: install
 # Everything on the embedded default (SQLite, filesystem broker; Redis and Chromium tests run
 # where those exist), then the database-backed tests again on Postgres when it answers.
 test: install
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest --durations=25
 	@if $(BIN)/python -c "import psycopg; psycopg.connect('host=127.0.0.1 user=postgres dbname=postgres', connect_timeout=3).close()" 2>/dev/null; then \
 		echo "--- again on Postgres ---"; \
 		GUIDED_SFM_TEST_DATABASE_URL=$(POSTGRES_TEST_URL) $(BIN)/python -m pytest tests/api tests/worker tests/test_migrations.py -m "not slow and not browser"; \
