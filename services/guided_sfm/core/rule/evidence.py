@@ -4,6 +4,7 @@ And the shape of a test's answer (Verdicts)."""
 
 from __future__ import annotations
 
+import copy
 import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -104,7 +105,9 @@ class ModelParts(NamedTuple):
 def _model_parts(model_dir: str, _stamp: tuple[int, ...]) -> ModelParts:
     model = pycolmap.Reconstruction(model_dir)
     poses = model_poses(model)
-    cameras = {i: model.cameras[model.image(i).camera_id] for i in poses}
+    # copies: a reference into the model would keep all of it (every point's track) in the cache
+    by_id = {camera_id: copy.copy(camera) for camera_id, camera in model.cameras.items()}
+    cameras = {i: by_id[model.image(i).camera_id] for i in poses}
     return ModelParts(poses, cameras, model_files.read_points(Path(model_dir)))
 
 
