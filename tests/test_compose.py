@@ -166,7 +166,8 @@ def test_local_override_keeps_the_file_but_what_this_machine_lacks(compose):
 
 def test_local_override_as_stack_sh_calls_it(tmp_path):
     """The command line deploy/podman/stack.sh runs, and the YAML podman-compose then reads."""
-    args = ["postgresql+psycopg://postgres@127.0.0.1:5432/guided_sfm_compose", "redis://127.0.0.1:6379/8", "9100", "8100"]
+    args = ["postgresql+psycopg://postgres@127.0.0.1:5432/guided_sfm_compose", "redis://127.0.0.1:6379/8",
+            "9100", "8100"]
     command = [sys.executable, str(ROOT / "deploy/podman/local_compose.py"), str(ROOT / "docker-compose.yml")]
     done = subprocess.run([*command, *args], capture_output=True, text=True, check=True)
     written = yaml.safe_load(done.stdout)

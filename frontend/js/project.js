@@ -66,6 +66,20 @@ export class ProjectPage {
       get(`${base}/scene`), get(`${base}/pairs`)]);
     if (!version) throw new Error(`version ${vid} does not exist in this project`);
     this.setScene(version, scene, pairs);
+    this.loadMorePoints(base, scene); // not awaited: the first draw does not wait for it
+  }
+
+  // The server sends its own level of detail of the point layer (a big scene: a decimated one,
+  // points.total says how many it keeps); the rest follows once the scene is drawn.
+  async loadMorePoints(base, scene) {
+    const { total, xy } = scene.points ?? {};
+    if (!total || total <= (xy?.length ?? 0)) return;
+    const { version } = this.store;
+    const fuller = await get(`${base}/scene?max_points=${total}`).catch(() => null);
+    if (!fuller || this.store.version !== version) return; // another version opened meanwhile
+    this.store.points = pointsOf(fuller);
+    this.view.points = this.store.points;
+    this.view.requestDraw();
   }
 
   setScene(version, scene, pairs) {

@@ -209,7 +209,8 @@ export class SceneView {
     this.overlay?.(ctx, t, px); // e.g. comment pins, drawn by their panel
     this.frame += 1;
     Object.assign(canvas.dataset, { frame: String(this.frame), hovered: String(this.hovered ?? ""),
-      view: `${this.view.cx},${this.view.cy},${this.view.scale}` });
+      view: `${this.view.cx},${this.view.cy},${this.view.scale}`, cameras: String(this.cameras.length),
+      points: String(this.points.length / 2) });
   }
 
   drawScale(px) {

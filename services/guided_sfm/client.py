@@ -199,9 +199,12 @@ class Client:
     def scene(self, pid: int, vid: int) -> Json:
         return self.request("GET", f"/projects/{pid}/versions/{vid}/scene")
 
-    def pairs(self, pid: int, vid: int, image_id: int | None = None) -> list[Json]:
-        params = {"image_id": image_id} if image_id is not None else None
-        return self.request("GET", f"/projects/{pid}/versions/{vid}/pairs", params=params)
+    def pairs(self, pid: int, vid: int, image_id: int | None = None, order: str | None = None,
+              limit: int | None = None, offset: int | None = None) -> list[Json]:
+        """Verified pairs; `order="inliers"` lists the most inliers first; limit/offset page."""
+        params = {key: value for key, value in (("image_id", image_id), ("order", order),
+                                                ("limit", limit), ("offset", offset)) if value is not None}
+        return self.request("GET", f"/projects/{pid}/versions/{vid}/pairs", params=params or None)
 
     def restore(self, pid: int, vid: int) -> Json:
         return self.request("POST", f"/projects/{pid}/versions/{vid}/restore")

@@ -64,6 +64,7 @@ class FakeApi:
         self.deleted = False
         self.uploads: list[list[str]] = []  # file names per upload request
         self.stored_names: set[str] = set()
+        self.decimate = False  # send every other point unless ?max_points= asks (a big scene)
         self.lose_next_upload = False  # store the next upload, then answer 502 (a lost answer)
         self.points = [[x / 4, 2.0 + (x % 3) / 10] for x in range(-4, 24)] + [list(p) for p in stray]
         self.edit: dict | None = None
@@ -122,9 +123,11 @@ class FakeApi:
             return 200, team[(method, path)]
         if path.endswith("/scene"):
             frame = {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0], "up": [0, 0, 1]}
+            query = parse_qs(urlsplit(request.url).query)
+            xy = self.points if "max_points" in query or not self.decimate else self.points[::2]
             return 200, {"frame": frame, "cameras": self.cameras_of(version_of(path)),
                          "models": [{"index": 0, "num_images": 5}],
-                         "points": {"xy": self.points}}
+                         "points": {"xy": xy, "total": len(self.points)}}
         if path.endswith("/suspects"):  # triage (v1.1): set `suspects` to raise some
             return 200, self.suspects
         if path.endswith("/compare"):

@@ -246,3 +246,13 @@ def test_matching_panel_pages_through_many_partners(page):
     page.locator("#strip .thumb[data-id='3']").click()
     expect(rows).to_have_count(2)
     assert page.locator("#match-pager").is_hidden()
+
+
+def test_the_editor_draws_the_servers_level_then_asks_for_every_point(page):
+    """A decimated point layer first (points.total says more are kept), then ?max_points=."""
+    fake = FakeApi()
+    fake.decimate = True
+    open_fake(page, fake)
+    expect(page.locator("#scene")).to_have_attribute("data-points", str(len(fake.points)))
+    scene_gets = [path for method, path in fake.log if path.endswith("/scene")]
+    assert len(scene_gets) == 2  # the server's level, then all (the log keeps paths, not queries)

@@ -4,6 +4,8 @@ And the shape of a test's answer (Verdicts)."""
 
 from __future__ import annotations
 
+import copy
+import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,7 +15,7 @@ import numpy as np
 import pycolmap
 
 from guided_sfm.core import colmap_db, model_files
-from guided_sfm.core.colmap_model import model_poses
+from guided_sfm.core.colmap_model import ModelPose, model_poses
 from guided_sfm.core.types import PairKey
 
 # A median angle or a 9x9 moment matrix settles long before a pair's hundreds of matches run out;
@@ -91,20 +93,49 @@ def pairs_touching(pairs: Iterable[PairKey], image_ids: Iterable[int]) -> list[P
     return [pair for pair in pairs if pair[0] in ids or pair[1] in ids]
 
 
-def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey]) -> Evidence:
-    """Evidence for these pairs from the largest model at model_dir and the matching database."""
-    pairs = list(pairs)
+class ModelParts(NamedTuple):
+    """What every preview on a model reads whatever the edit: poses, cameras, points."""
+
+    poses: dict[int, ModelPose]
+    cameras: dict[int, pycolmap.Camera]  # by image id
+    points: tuple[np.ndarray, np.ndarray]  # read_points' sorted ids and xyz
+
+
+@functools.lru_cache(maxsize=2)
+def _model_parts(model_dir: str, _stamp: tuple[int, ...]) -> ModelParts:
     model = pycolmap.Reconstruction(model_dir)
-    poses = model_poses(model, {i for pair in pairs for i in pair})
+    poses = model_poses(model)
+    # copies: a reference into the model would keep all of it (every point's track) in the cache
+    by_id = {camera_id: copy.copy(camera) for camera_id, camera in model.cameras.items()}
+    cameras = {i: by_id[model.image(i).camera_id] for i in poses}
+    return ModelParts(poses, cameras, model_files.read_points(Path(model_dir)))
+
+
+def model_parts(model_dir: Path) -> ModelParts:
+    """The model's parts, kept for the last two models read: a version's model never changes and
+    its previews repeat as the user edits (at 1,000 cameras loading them is most of a preview).
+    Keyed by the files' size and time as well, so a model written again is read again."""
+    files = [Path(model_dir) / name for name in ("cameras.bin", "images.bin", "points3D.bin")]
+    stamp = tuple(v for f in files for v in (f.stat().st_mtime_ns, f.stat().st_size))
+    return _model_parts(str(Path(model_dir).resolve()), stamp)
+
+
+def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey]) -> Evidence:
+    """Evidence for these pairs from the largest model at model_dir and the matching database:
+    the model's parts (cached), and only the tested images' keypoints and the tested pairs' matches."""
+    pairs = list(pairs)
+    parts = model_parts(model_dir)
+    wanted = {i for pair in pairs for i in pair}
+    poses = {i: pose for i, pose in parts.poses.items() if i in wanted}
     image_ids = sorted(poses)
     observations = model_files.read_observations(model_dir, image_ids)
-    point_ids, xyz = model_files.read_points(model_dir)
+    point_ids, xyz = parts.points
     rotations, translations, rays, points = [], [], [], []
     for image_id in image_ids:
         xy, observed = observations[image_id]
         rotations.append(poses[image_id].rotation)
         translations.append(poses[image_id].translation)
-        rays.append(_rays(model.cameras[model.image(image_id).camera_id], xy))
+        rays.append(_rays(parts.cameras[image_id], xy))
         points.append(model_files.points_of(observed, point_ids, xyz))
     counts = [len(r) for r in rays]
     return Evidence(
