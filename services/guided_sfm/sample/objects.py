@@ -20,6 +20,19 @@ def plain(rng: np.random.Generator, w: int, h: int, amplitude: float = 0.06) -> 
     return np.clip(arr, 0, 255).astype(np.uint8)
 
 
+def plain_room(scene: Scene, rng: np.random.Generator, length: float, width: float, height: float) -> None:
+    """Blank walls, floor and ceiling of a length x width x height room with a corner at the origin:
+    corners only where the layout hangs pictures or stands objects."""
+    wall = scene.add_texture(plain(rng, 400, 140))
+    for center, yaw, span in (((length / 2, width, height / 2), -90.0, length),
+                              ((length / 2, 0.0, height / 2), 90.0, length),
+                              ((0.0, width / 2, height / 2), 0.0, width),
+                              ((length, width / 2, height / 2), 180.0, width)):
+        scene.quads.append(wall_quad(center, yaw, span, height, wall))
+    scene.quads.append(horizontal_quad(0, 0, length, width, 0.0, scene.add_texture(plain(rng, 300, 300))))
+    scene.quads.append(horizontal_quad(0, 0, length, width, height, scene.add_texture(plain(rng, 200, 200))))
+
+
 def facing(center, target) -> float:
     """Yaw (deg, ccw from +x) of the direction from center to target on the ground."""
     return float(np.degrees(np.arctan2(target[1] - center[1], target[0] - center[0])))
@@ -67,15 +80,7 @@ def _orbit(rng: np.random.Generator, size: tuple[float, float, float], radius: f
     scene = Scene()
     length = width = 9.0
     height = 3.0
-    wall = scene.add_texture(plain(rng, 400, 140))
-    for center, yaw, span in (((length / 2, width, height / 2), -90.0, length),
-                              ((length / 2, 0.0, height / 2), 90.0, length),
-                              ((0.0, width / 2, height / 2), 0.0, width),
-                              ((length, width / 2, height / 2), 180.0, width)):
-        scene.quads.append(wall_quad(center, yaw, span, height, wall))
-    scene.quads.append(horizontal_quad(0, 0, length, width, 0.0, scene.add_texture(plain(rng, 300, 300))))
-    scene.quads.append(horizontal_quad(0, 0, length, width, height,
-                                       scene.add_texture(plain(rng, 200, 200))))
+    plain_room(scene, rng, length, width, height)
     scene.lights.extend(np.array([x, y, height - 0.05]) for x in (3.0, 6.0) for y in (3.0, 6.0))
     art = scene.add_texture(tx.mural(rng, int(size[0] * WALL_TPM), int(size[2] * WALL_TPM)))
     middle = (length / 2, width / 2)

@@ -9,9 +9,8 @@ from collections.abc import Callable
 import numpy as np
 
 from guided_sfm.sample import textures as tx
-from guided_sfm.sample.geometry import horizontal_quad, wall_quad
 from guided_sfm.sample.layouts import VGA, WALL_TPM, Layout, hang, poses_along, walk
-from guided_sfm.sample.objects import plain
+from guided_sfm.sample.objects import plain_room
 from guided_sfm.sample.raycast import Scene
 
 LENGTH, WIDTH, HEIGHT = 14.0, 6.0, 3.0
@@ -19,14 +18,7 @@ LENGTH, WIDTH, HEIGHT = 14.0, 6.0, 3.0
 
 def _plain_hall(scene: Scene, rng: np.random.Generator) -> None:
     """Blank walls, floor and ceiling: corners only where pictures hang."""
-    wall = scene.add_texture(plain(rng, 400, 140))
-    for center, yaw, span in (((LENGTH / 2, WIDTH, HEIGHT / 2), -90.0, LENGTH),
-                              ((LENGTH / 2, 0.0, HEIGHT / 2), 90.0, LENGTH),
-                              ((0.0, WIDTH / 2, HEIGHT / 2), 0.0, WIDTH),
-                              ((LENGTH, WIDTH / 2, HEIGHT / 2), 180.0, WIDTH)):
-        scene.quads.append(wall_quad(center, yaw, span, HEIGHT, wall))
-    scene.quads.append(horizontal_quad(0, 0, LENGTH, WIDTH, 0.0, scene.add_texture(plain(rng, 300, 300))))
-    scene.quads.append(horizontal_quad(0, 0, LENGTH, WIDTH, HEIGHT, scene.add_texture(plain(rng, 200, 200))))
+    plain_room(scene, rng, LENGTH, WIDTH, HEIGHT)
     scene.lights.extend(np.array([x, WIDTH / 2, HEIGHT - 0.05]) for x in (3.0, 7.0, 11.0))
 
 
