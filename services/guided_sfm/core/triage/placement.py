@@ -106,9 +106,11 @@ def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
         poses[i] = _reverse(placed)
         by_symmetry[i] = not trusted[i] and walk.by_symmetry(i)
         walk.placed(i)
-    fixed = [t or s for t, s in zip(trusted, by_symmetry, strict=True)]
-    _between_trusted(pieces, poses, fixed, step)
-    _to_anchors(pieces, poses, fixed, anchors, step)
+    _between_trusted(pieces, poses, [t or s for t, s in zip(trusted, by_symmetry, strict=True)],
+                     step)
+    # two-view anchors are seen from the anchor camera's model pose: only trusted pieces give
+    # them, and a piece the symmetry moved keeps that move
+    _to_anchors(pieces, poses, trusted, anchors, step, by_symmetry)
     return Placement(poses, trusted, anchor, by_symmetry)
 
 
@@ -182,12 +184,12 @@ MIN_ANCHORS, MIN_RAY_SPREAD_DEG, MAX_YAW_SPREAD_DEG, MAX_MISS_STEPS = 3, 10.0, 2
 
 
 def _to_anchors(pieces: list[Piece], poses: list, trusted: list[bool], anchors: list,
-                step: float) -> None:
+                step: float, keep: list[bool]) -> None:
     """Refit each moved piece to where its pairs with trusted cameras put it."""
     known = {c.image_id: p for i, piece in enumerate(pieces) if trusted[i]
              for c, p in zip(piece.cameras, piece.poses, strict=True)}
     for i, piece in enumerate(pieces):
-        if trusted[i] or piece.kind == LOOSE:
+        if trusted[i] or keep[i] or piece.kind == LOOSE:
             continue
         own = {c.image_id: p for c, p in zip(piece.cameras, piece.poses, strict=True)}
         mine = [a for a in anchors if a.image_id in own and a.anchor in known]
