@@ -115,8 +115,8 @@ def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
 
 
 # A point pair agrees with a motion when it carries the run's point within this many typical
-# steps of the placed one (measured on twins: 0.1, 0.25 and 0.5 recover the main run's move
-# alike, 0.08-0.12 steps off; 0.25 keeps the most of its pairs without joining look-alikes).
+# steps of the placed one (measured on twins seed 0: 0.1, 0.25 and 0.5 each recover the main
+# run's move 0.08-0.12 steps off; 0.25 is the middle of that range).
 SYMMETRY_TOLERANCE_STEPS = 0.25
 
 
