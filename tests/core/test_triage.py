@@ -1,9 +1,11 @@
 """Triage's signals, runs and proposals on hand-made captures (no reconstruction)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from guided_sfm.core.triage import poses2d, signals
+from guided_sfm.core.triage import poses2d, signals, symmetry
 from guided_sfm.core.triage.evidence import MissingCount, TriageInput
 from guided_sfm.core.triage.suspects import RAISE_SCORE, triage
 from guided_sfm.core.types import GroundFrame, SceneCamera, TopDownScene, pair_key
@@ -145,3 +147,29 @@ def test_true_neighbours_the_model_cannot_hold_break_even_a_short_step():
     steps = signals.steps_between(data.scene.cameras, data.pairs, data.shared_points)
     assert steps[6].length_steps < signals.BREAK_STEPS and steps[6].conflict and steps[6].breaks
     assert raised(triage(data)) == set(range(7, 12))
+
+
+
+def test_a_run_that_jumped_for_real_goes_where_its_look_alike_matches_put_it():
+    """The capture jumps to a twin structure 5 m aside and the model folded the jump onto the
+    first one: continuing the walk would put the run 5 m off, but the points its matches with
+    trusted cameras join, held apart by the model, say where it goes (an eighth of them
+    look-alikes of the twin)."""
+    rng = np.random.default_rng(5)
+    walk = straight(12)
+    truth = walk[:7] + [(x, y + 5.0, yaw) for x, y, yaw in walk[7:]]
+    placed = walk[:7] + [(x - 7.0, y + 0.1, yaw) for x, y, yaw in walk[7:]]
+    move = np.array([7.0, 4.9, 0.0])  # the run's way from placed to true: a pose on the left
+    split = {}
+    for trusted in range(1, 8):
+        for run_camera in range(8, 13):
+            held = rng.uniform(-3.0, 3.0, (40, 2)) + [3.0, 6.0]  # the trusted camera's points
+            own = symmetry.apply(poses2d.inverse(move), held)  # the run's, where it is placed
+            own[::8] = held[::8] - [0.0, 5.0]  # look-alikes: the twin, 5 m aside
+            split[pair_key(trusted, run_camera)] = (held, own)
+    data = dataclasses.replace(capture(truth, placed), split_points=split)
+    (run,) = triage(data).runs
+    assert run.image_ids == [8, 9, 10, 11, 12] and "symmetry" in run.reason
+    for edit, true in zip(run.proposal, truth[7:], strict=True):
+        assert np.hypot(edit.x - true[0], edit.y - true[1]) < 0.3
+        assert signals.turn_deg(edit.yaw_deg, true[2]) < 5

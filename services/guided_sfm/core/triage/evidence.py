@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import model_files
+from guided_sfm.core import colmap_db, model_files
 from guided_sfm.core.colmap_model import ModelPose, model_poses
-from guided_sfm.core.types import PairKey, TopDownScene
+from guided_sfm.core.types import GroundFrame, PairKey, TopDownScene
 
 # Points a camera "should see": in front of it, inside its image with this margin (share of the
 # image size), nearer than this many times its typical depth (farther ones are easily occluded).
@@ -38,6 +38,34 @@ class TriageInput:
     shared_points: dict[PairKey, int] = field(default_factory=dict)
     missing: dict[int, MissingCount] = field(default_factory=dict)
     anchors: list = field(default_factory=list)  # two_view.Anchor of pairs the model cannot hold
+    # per pair: ground positions (N, 2) of the 3D points its matches join that the model holds
+    # as two different points, the first image's then the second's (symmetry.py)
+    split_points: dict[PairKey, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+
+# A pair's split points are read when at least this many of its inliers are not shared points.
+MIN_SPLIT = 10
+
+
+def split_points(database: Path, model_dir: Path, frame: GroundFrame, poses: dict[int, ModelPose],
+                 pairs: dict[PairKey, int], shared: dict[PairKey, int]
+                 ) -> dict[PairKey, tuple[np.ndarray, np.ndarray]]:
+    """Per verified pair of registered images: the ground positions of the 3D points its inlier
+    matches join that the model holds as two different points (first image's, second's)."""
+    wanted = [k for k, n in pairs.items() if k in shared and n - shared[k] >= MIN_SPLIT]
+    if not wanted:
+        return {}
+    observations = model_files.read_observations(model_dir, poses)
+    ids, xyz = model_files.read_points(model_dir)
+    out = {}
+    for (a, b), rows in colmap_db.inlier_matches_of(database, wanted).items():
+        point_a, point_b = observations[a][1][rows[:, 0]], observations[b][1][rows[:, 1]]
+        split = ((point_a != model_files.NO_POINT) & (point_b != model_files.NO_POINT)
+                 & (point_a != point_b))
+        if split.any():
+            out[(a, b)] = (frame.to_2d(model_files.points_of(point_a[split], ids, xyz)),
+                           frame.to_2d(model_files.points_of(point_b[split], ids, xyz)))
+    return out
 
 
 def shared_point_counts(observed: dict[int, np.ndarray], pairs: Iterable[PairKey]) -> dict[PairKey, int]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from guided_sfm.core.colmap_model import model_poses
 from guided_sfm.core.triage import evidence, signals, two_view
 from guided_sfm.core.triage.suspects import Triage, triage
 from guided_sfm.core.workspace import Workspace
@@ -21,4 +22,6 @@ def triage_workspace(workspace: Workspace) -> Triage:
     conflicts = [key for key, n in data.pairs.items() if key in data.shared_points
                  and signals.is_conflict(n, data.shared_points[key], share)]
     anchors = two_view.anchors_of(workspace.require(), models[0], scene.frame, conflicts)
-    return triage(dataclasses.replace(data, anchors=anchors))
+    split = evidence.split_points(workspace.require(), workspace.model_dir(0), scene.frame,
+                                  model_poses(models[0]), data.pairs, data.shared_points)
+    return triage(dataclasses.replace(data, anchors=anchors, split_points=split))

@@ -62,7 +62,7 @@ def triage(data: TriageInput) -> Triage:
     group_poses = {c.image_id: (c.group_pose["x"], c.group_pose["y"], c.group_pose["yaw_deg"])
                    for c in cameras if c.group_pose is not None}
     pieces = cut_pieces(cameras, steps, group_poses)
-    placement = place_pieces(pieces, step, data.anchors)
+    placement = place_pieces(pieces, step, data.anchors, data.split_points)
     if placement is None:
         return Triage([], [])
     moved = [i for i, piece in enumerate(pieces) if not placement.trusted[i]]
@@ -71,8 +71,8 @@ def triage(data: TriageInput) -> Triage:
                 for i, piece in enumerate(pieces) if piece.kind == PLACED for c in piece.cameras]
     suspects.sort(key=lambda s: (-s.score, s.image_id))
     scores = {s.image_id: s.score for s in suspects}
-    runs = [_run(pieces[i], placement.poses[i], pieces[placement.anchor], data.pairs)
-            for i in moved]
+    runs = [_run(pieces[i], placement.poses[i], pieces[placement.anchor], data.pairs,
+                 placement.by_symmetry[i]) for i in moved]
     runs.sort(key=lambda r: (-max(scores.get(i, 1.0) for i in r.image_ids), r.image_ids[0]))
     return Triage(suspects, runs)
 
@@ -88,14 +88,15 @@ def _capture_order(data: TriageInput) -> list:
     return cameras[start:] + cameras[:start]
 
 
-def _run(piece: Piece, poses: np.ndarray, anchor: Piece, pairs: dict) -> Run:
+def _run(piece: Piece, poses: np.ndarray, anchor: Piece, pairs: dict,
+         by_symmetry: bool = False) -> Run:
     if piece.kind != PLACED and not _linked(piece, pairs):
         # nothing in the matches says where it belongs: the user places it (a group move)
         return Run(piece.image_ids, _run_reason(piece, anchor) + _UNLINKED, None)
     proposal = [CameraEdit(c.image_id, float(p[0]), float(p[1]),
                            float((np.degrees(p[2]) + 180.0) % 360.0 - 180.0))
                 for c, p in zip(piece.cameras, poses, strict=True)]
-    return Run(piece.image_ids, _run_reason(piece, anchor), proposal)
+    return Run(piece.image_ids, _run_reason(piece, anchor, by_symmetry), proposal)
 
 
 _UNLINKED = "; no verified pair links it to the other cameras, so nothing is proposed"
@@ -107,14 +108,16 @@ def _linked(piece: Piece, pairs: dict) -> bool:
     return any((a in own) != (b in own) for a, b in pairs)
 
 
-def _run_reason(piece: Piece, anchor: Piece) -> str:
+def _run_reason(piece: Piece, anchor: Piece, by_symmetry: bool = False) -> str:
     if piece.kind == GROUP:
         return f"{piece.names}: model {piece.cameras[0].model}, apart from the largest"
     if piece.kind == LOOSE:
         return f"{piece.names}: in no model"
+    how = ("moved by the symmetry their look-alike matches with the placed cameras imply"
+           if by_symmetry else "moved to continue the trajectory of their neighbours")
     return (f"{piece.names}: {len(piece.cameras)} cameras placed continuously but apart from "
-            f"the capture's largest continuous stretch ({anchor.names}); moved to continue "
-            "the trajectory of their neighbours with their own relative poses")
+            f"the capture's largest continuous stretch ({anchor.names}); {how} with their own "
+            "relative poses")
 
 
 def _boundary_reasons(piece: Piece) -> tuple[list[str], float, bool]:
