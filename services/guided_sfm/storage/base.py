@@ -40,6 +40,11 @@ class UnpublishedVersion(FileNotFoundError):
     """A version key with no manifest: never published, or still being published."""
 
 
+class StoreUnavailable(Exception):
+    """The store did not answer as a store does (unreachable, refusing, overloaded, denying
+    access): the call read or changed nothing it reports, and may be tried again later."""
+
+
 @dataclass(frozen=True)
 class Blob:
     """A stored file as the API sends it: a local file, or a stream of chunks of a known size."""
