@@ -28,12 +28,12 @@ def reconcile(session: Session, store: Store, grace_seconds: float) -> dict[str,
     cutoff = time.time() - grace_seconds
     removed = {"projects": 0, "images": 0, "thumbs": 0, "versions": 0, "tmp": 0}
     live = set(session.scalars(select(Project.id)))
-    for name, changed in sorted(store.children("projects").items()):
+    for name in store.children("projects"):
         if not name.isdigit():
             continue
         if int(name) in live:
             _sweep_project(session, store, int(name), cutoff, removed)
-        elif changed < cutoff:
+        elif _older(store, project_prefix(int(name)), cutoff):
             store.remove(project_prefix(int(name)))
             removed["projects"] += 1
     session.rollback()  # nothing written; end the read
@@ -65,9 +65,15 @@ def _sweep(store: Store, prefix: str, listed: set[str] | None, cutoff: float) ->
     """Children of prefix that are not listed and older than cutoff; listed=None: the data dir's
     request staging folders (a job's own are left to it: it may run for hours)."""
     count = 0
-    for name, changed in store.children(prefix).items():
+    for name in store.children(prefix):
         orphan = name.startswith(SHORT_LIVED) if listed is None else name not in listed
-        if orphan and changed < cutoff:
+        if orphan and _older(store, f"{prefix}/{name}", cutoff):
             store.remove(f"{prefix}/{name}")
             count += 1
     return count
+
+
+def _older(store: Store, key: str, cutoff: float) -> bool:
+    """Changed before cutoff (asked only of orphans: on S3 a folder's time lists its objects)."""
+    changed = store.changed(key)
+    return changed is not None and changed < cutoff

@@ -75,8 +75,14 @@ class Store(ABC):
         """The file at key and everything under key + "/"; nothing when there is none."""
 
     @abstractmethod
-    def children(self, prefix: str) -> dict[str, float]:
-        """Names one level under prefix, each with the time it last changed (epoch seconds)."""
+    def children(self, prefix: str) -> list[str]:
+        """Names one level under prefix (files and folders), sorted; costs that level only."""
+
+    @abstractmethod
+    def changed(self, key: str) -> float | None:
+        """When the file or folder at key last changed (epoch seconds), None when there is none.
+        A folder's time: in the data dir its own (a published version keeps its staging time), on
+        S3 its newest object's (a version still uploading looks young)."""
 
     @abstractmethod
     def blob(self, key: str) -> Blob:

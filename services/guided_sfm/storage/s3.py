@@ -37,6 +37,7 @@ MANIFEST = "manifest.json"
 SCRATCH = "guided-sfm-scratch"  # under the temp dir; one folder per job or request, named by pid
 TRANSFERS = 8  # parallel downloads when a job fetches its inputs
 CHUNK = 1 << 20  # bytes per chunk when the API streams a file
+PAGE = 1000  # keys per listing request (S3's most)
 # a request waits this long for an endpoint that does not answer, and is tried this often in all
 # (botocore's "standard" retries back off between tries): an outage costs a request seconds, not minutes
 CONNECT_SECONDS, ATTEMPTS = 5, 3
@@ -117,14 +118,26 @@ class S3Store(Store):
             self.client.delete_objects(Bucket=self.bucket, Delete={"Objects": objects, "Quiet": True})
 
     @_reaching
-    def children(self, prefix: str) -> dict[str, float]:
-        """Each child's time is its newest object's: a version still being uploaded looks young."""
-        found: dict[str, float] = {}
-        start = len(self._key(prefix)) + 1
-        for key, modified in self._list(prefix + "/"):
-            name = key[start:].split("/", 1)[0]
-            found[name] = max(found.get(name, 0.0), modified)
-        return found
+    def children(self, prefix: str) -> list[str]:
+        """One level, page by page: files and folders ("common prefixes") under prefix + "/"."""
+        start, found = len(self._key(prefix)) + 1, set()
+        for page in self._pages(prefix + "/", Delimiter="/"):
+            found.update(item["Key"][start:] for item in page.get("Contents", []))
+            found.update(item["Prefix"][start:].rstrip("/") for item in page.get("CommonPrefixes", []))
+        return sorted(found)
+
+    @_reaching
+    def changed(self, key: str) -> float | None:
+        """A folder's newest object (everything under it is listed), else the file's own time."""
+        newest = max((modified for _, modified in self._list(key + "/")), default=None)
+        if newest is not None:
+            return newest
+        try:
+            return self.client.head_object(Bucket=self.bucket, Key=self._key(key))["LastModified"].timestamp()
+        except ClientError as exc:
+            if _status(exc) == 404:
+                return None
+            raise
 
     @_reaching
     def blob(self, key: str) -> Blob:
@@ -136,11 +149,14 @@ class S3Store(Store):
 
     def _list(self, prefix: str) -> Iterator[tuple[str, float]]:
         """(full key, last modified) of every object under prefix."""
-        pages = self.client.get_paginator("list_objects_v2").paginate(Bucket=self.bucket,
-                                                                      Prefix=self._key(prefix))
-        for page in pages:
+        for page in self._pages(prefix):
             for item in page.get("Contents", []):
                 yield item["Key"], item["LastModified"].timestamp()
+
+    def _pages(self, prefix: str, **options) -> Iterator[dict]:
+        paginator = self.client.get_paginator("list_objects_v2")
+        return paginator.paginate(Bucket=self.bucket, Prefix=self._key(prefix), **options,
+                                  PaginationConfig={"PageSize": PAGE})
 
     # -- versions and scratch ---------------------------------------------------------------------
 
