@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from pathlib import PurePosixPath
 
 from sqlalchemy import select
@@ -21,18 +22,23 @@ log = logging.getLogger(__name__)
 SHORT_LIVED = ("upload-", "import-", "thumb-")  # request-time staging folders; a job's own live for hours
 
 
-def reconcile(session: Session, store: Store, grace_seconds: float) -> dict[str, int]:
+def reconcile(session: Session, store: Store, grace_seconds: float,
+              job_seconds: Callable[[int], float] | None = None) -> dict[str, int]:
     """Remove orphans older than grace_seconds: projects without a row, image files, thumbnails and
     versions without a row (published or half-published), stale request staging in the data dir,
-    and scratch dirs of dead processes. Returns counts by kind."""
-    cutoff = time.time() - grace_seconds
+    and scratch dirs of dead processes. With job_seconds (a job's time limit in a project of so
+    many images) also the data dir's other staging (a job's, an export's, a restore's) once older
+    than that limit: no live process outlives it. Returns counts by kind."""
+    now = time.time()
+    cutoff = now - grace_seconds
+    staging_cutoff = None if job_seconds is None else (lambda images: min(cutoff, now - job_seconds(images)))
     removed = {"projects": 0, "images": 0, "thumbs": 0, "versions": 0, "tmp": 0}
     live = set(session.scalars(select(Project.id)))
     for name in store.children("projects"):
         if not name.isdigit():
             continue
         if int(name) in live:
-            _sweep_project(session, store, int(name), cutoff, removed)
+            _sweep_project(session, store, int(name), (cutoff, staging_cutoff), removed)
         elif _older(store, project_prefix(int(name)), cutoff):
             store.remove(project_prefix(int(name)))
             removed["projects"] += 1
@@ -43,8 +49,10 @@ def reconcile(session: Session, store: Store, grace_seconds: float) -> dict[str,
     return removed
 
 
-def _sweep_project(session: Session, store: Store, project_id: int, cutoff: float,
-                   removed: dict[str, int]) -> None:
+def _sweep_project(session: Session, store: Store, project_id: int,
+                   cutoffs: tuple[float, Callable[[int], float] | None], removed: dict[str, int]) -> None:
+    """cutoffs: the grace's, and the one of staging other than a request's (by image count)."""
+    cutoff, staging_cutoff = cutoffs
     prefix = project_prefix(project_id)
     rows = session.execute(select(Image.id, Image.name).where(Image.project_id == project_id)).all()
     paths = session.scalars(select(Version.path).where(Version.project_id == project_id))
@@ -53,20 +61,24 @@ def _sweep_project(session: Session, store: Store, project_id: int, cutoff: floa
     removed["thumbs"] += _sweep(store, f"{prefix}/thumbs", thumbs, cutoff)
     removed["versions"] += _sweep(store, f"{prefix}/versions", versions, cutoff)
     removed["tmp"] += _sweep(store, f"{prefix}/tmp", None, cutoff)
+    if staging_cutoff is not None:
+        removed["tmp"] += _sweep(store, f"{prefix}/tmp", None, staging_cutoff(len(rows)), long_lived=True)
 
 
 def reconcile_store(sessions: sessionmaker[Session], settings: Settings) -> dict[str, int]:
     """reconcile() on the settings' artifact store, in a session of its own."""
     with session_scope(sessions) as session:
-        return reconcile(session, open_store(settings), settings.orphan_grace_seconds)
+        return reconcile(session, open_store(settings), settings.orphan_grace_seconds, settings.job_seconds)
 
 
-def _sweep(store: Store, prefix: str, listed: set[str] | None, cutoff: float) -> int:
+def _sweep(store: Store, prefix: str, listed: set[str] | None, cutoff: float,
+           long_lived: bool = False) -> int:
     """Children of prefix that are not listed and older than cutoff; listed=None: the data dir's
-    request staging folders (a job's own are left to it: it may run for hours)."""
+    staging folders, those of requests (SHORT_LIVED), or with long_lived the others (a job's, an
+    export's, a restore's)."""
     count = 0
     for name in store.children(prefix):
-        orphan = name.startswith(SHORT_LIVED) if listed is None else name not in listed
+        orphan = name.startswith(SHORT_LIVED) != long_lived if listed is None else name not in listed
         if orphan and _older(store, f"{prefix}/{name}", cutoff):
             store.remove(f"{prefix}/{name}")
             count += 1
