@@ -22,7 +22,7 @@ from urllib.parse import urlsplit
 import boto3
 from boto3.exceptions import Boto3Error
 from botocore.config import Config
-from botocore.exceptions import BotoCoreError, ClientError
+from botocore.exceptions import BotoCoreError, ClientError, ParamValidationError
 
 from guided_sfm.storage.base import (
     Blob,
@@ -53,6 +53,8 @@ def _reaching(method):
     def wrapper(self, *args, **kwargs):
         try:
             return method(self, *args, **kwargs)
+        except ParamValidationError:  # a call this code got wrong, not the store's state
+            raise
         except UNAVAILABLE as exc:
             raise StoreUnavailable(f"artifact store unavailable ({_reason(exc)})") from exc
 
