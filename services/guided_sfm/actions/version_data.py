@@ -25,7 +25,6 @@ from guided_sfm.core.workspace import (
     PRUNING,
     SCENE,
     SPARSE,
-    PruneOutcome,
     Workspace,
 )
 from guided_sfm.db import queries
@@ -74,7 +73,8 @@ class _VersionCache:
 
 
 def _token(arg: Any) -> str:
-    """An argument as a cache key: a version by its artifact key, a JSON body by its digest."""
+    """An argument as a cache key: a version by its artifact key, a mapping (an edit set body, the
+    image rows) by its digest."""
     if isinstance(arg, dict):
         return hashlib.sha256(json.dumps(arg, sort_keys=True).encode()).hexdigest()
     return str(getattr(arg, "path", None) or repr(arg))
@@ -144,11 +144,18 @@ def pairs(session: Session, store: Store, version: Version, image_id: int | None
 
 
 def preview(session: Session, store: Store, row: EditSetRow, base: Version) -> dict[str, Any]:
-    """What applying the edit set would delete; nothing is written. The outcome is cached by the
-    base and the body in COLMAP ids: shown again (another viewer, a reload, the review) it reads
-    nothing of the version; REST ids come from the rows each time."""
-    ids = _ids(session, store, base)
-    outcome = _preview_cache(session, store, base, ids.edits_body(row.body))
+    """What applying the edit set would delete; nothing is written. Cached by the base, the body
+    and the project's image rows (the REST ids): shown again (another viewer, a reload, the
+    review) it reads nothing of the version."""
+    return _preview_cache(session, store, base, row.body, queries.image_ids_by_name(session, base.project_id))
+
+
+def _preview(_session: Session, store: Store, base: Version, body: dict,
+             sql_by_name: dict[str, int]) -> dict[str, Any]:
+    with store.reading(base.path, only=(DATABASE, SPARSE + "/", SCENE)) as root:  # pairs, evidence, frame
+        workspace = Workspace(root)
+        ids = IdMap(sql_by_name, workspace.image_ids())
+        outcome = workspace.preview(parse_edits(ids.edits_body(body), workspace.image_ids()))
     return {
         "pairs_to_delete": ids.pairs(outcome.deleted),
         "components_before": outcome.components_before,
@@ -160,19 +167,13 @@ def preview(session: Session, store: Store, row: EditSetRow, base: Version) -> d
     }
 
 
+_preview_cache = _VersionCache(_preview).get
+
+
 def _ids(session: Session, store: Store, version: Version) -> IdMap:
     """REST <-> COLMAP ids of a version: its names from the cached database read, the rows now."""
     colmap_by_name, _ = _verified_cache(session, store, version)
     return IdMap(queries.image_ids_by_name(session, version.project_id), colmap_by_name)
-
-
-def _preview(_session: Session, store: Store, base: Version, colmap_body: dict) -> PruneOutcome:
-    with store.reading(base.path, only=(DATABASE, SPARSE + "/", SCENE)) as root:  # pairs, evidence, frame
-        workspace = Workspace(root)
-        return workspace.preview(parse_edits(colmap_body, workspace.image_ids()))
-
-
-_preview_cache = _VersionCache(_preview).get
 
 
 def compare(session: Session, store: Store, version: Version, other: Version) -> dict[str, Any]:
