@@ -19,7 +19,7 @@ from guided_sfm.settings import Settings
 from guided_sfm.storage import Store, open_store, project_prefix
 
 log = logging.getLogger(__name__)
-SHORT_LIVED = ("upload-", "import-", "thumb-")  # request-time staging folders; a job's own live for hours
+SHORT_LIVED = ("upload-", "import-", "thumb-")  # a request's staging; a job's, an export's may live for hours
 
 
 def reconcile(session: Session, store: Store, grace_seconds: float,
@@ -57,12 +57,14 @@ def _sweep_project(session: Session, store: Store, project_id: int,
     rows = session.execute(select(Image.id, Image.name).where(Image.project_id == project_id)).all()
     paths = session.scalars(select(Version.path).where(Version.project_id == project_id))
     thumbs, versions = {f"{image_id}.jpg" for image_id, _ in rows}, {PurePosixPath(p).name for p in paths}
-    removed["images"] += _sweep(store, f"{prefix}/images", {name for _, name in rows}, cutoff)
-    removed["thumbs"] += _sweep(store, f"{prefix}/thumbs", thumbs, cutoff)
-    removed["versions"] += _sweep(store, f"{prefix}/versions", versions, cutoff)
-    removed["tmp"] += _sweep(store, f"{prefix}/tmp", None, cutoff)
-    if staging_cutoff is not None:
-        removed["tmp"] += _sweep(store, f"{prefix}/tmp", None, staging_cutoff(len(rows)), long_lived=True)
+    removed["images"] += _sweep(store, f"{prefix}/images", _unless({name for _, name in rows}, cutoff))
+    removed["thumbs"] += _sweep(store, f"{prefix}/thumbs", _unless(thumbs, cutoff))
+    removed["versions"] += _sweep(store, f"{prefix}/versions", _unless(versions, cutoff))
+    # the data dir's staging: a request's after the grace; a job's, an export's or a restore's
+    # once older than a job may run (kept when no limit is given)
+    long_cutoff = None if staging_cutoff is None else staging_cutoff(len(rows))
+    removed["tmp"] += _sweep(store, f"{prefix}/tmp",
+                             lambda name: cutoff if name.startswith(SHORT_LIVED) else long_cutoff)
 
 
 def reconcile_store(sessions: sessionmaker[Session], settings: Settings) -> dict[str, int]:
@@ -71,18 +73,20 @@ def reconcile_store(sessions: sessionmaker[Session], settings: Settings) -> dict
         return reconcile(session, open_store(settings), settings.orphan_grace_seconds, settings.job_seconds)
 
 
-def _sweep(store: Store, prefix: str, listed: set[str] | None, cutoff: float,
-           long_lived: bool = False) -> int:
-    """Children of prefix that are not listed and older than cutoff; listed=None: the data dir's
-    staging folders, those of requests (SHORT_LIVED), or with long_lived the others (a job's, an
-    export's, a restore's)."""
+def _sweep(store: Store, prefix: str, cutoff_of: Callable[[str], float | None]) -> int:
+    """Remove the children of prefix older than their cutoff (None: kept); the count removed."""
     count = 0
     for name in store.children(prefix):
-        orphan = name.startswith(SHORT_LIVED) != long_lived if listed is None else name not in listed
-        if orphan and _older(store, f"{prefix}/{name}", cutoff):
+        cutoff = cutoff_of(name)
+        if cutoff is not None and _older(store, f"{prefix}/{name}", cutoff):
             store.remove(f"{prefix}/{name}")
             count += 1
     return count
+
+
+def _unless(listed: set[str], cutoff: float) -> Callable[[str], float | None]:
+    """Children a row names are kept; the others go once older than cutoff."""
+    return lambda name: None if name in listed else cutoff
 
 
 def _older(store: Store, key: str, cutoff: float) -> bool:
