@@ -3,9 +3,11 @@ in-process mock), with a fresh bucket per store."""
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import subprocess
 import sys
+import threading
 import time
 import uuid
 from pathlib import Path
@@ -72,3 +74,89 @@ class MotoServer:
             self.process.kill()
             self.process.wait(timeout=10)
         self.log.close()
+
+
+_SLOW_DOWN_BODY = b"<Error><Code>SlowDown</Code><Message>Please reduce your request rate.</Message></Error>"
+SLOW_DOWN = (b"HTTP/1.1 503 Slow Down\r\nContent-Type: application/xml\r\nConnection: close\r\n"
+             b"Content-Length: %d\r\n\r\n%s" % (len(_SLOW_DOWN_BODY), _SLOW_DOWN_BODY))
+
+
+class Gate:
+    """A TCP gate in front of an S3 endpoint, so a test can take the store away while the server
+    keeps its objects: `open` forwards every byte, `busy` answers each request 503 SlowDown (as S3
+    does under load), `closed` listens on nothing (connections refused, live ones cut)."""
+
+    def __init__(self, target_port: int) -> None:
+        self.target, self.port = target_port, free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.state, self.live, self.listener = "closed", set(), None
+        self.open()
+
+    def open(self) -> None:
+        self.state = "open"
+        if self.listener is None:
+            self.listener = socket.socket()
+            self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            self.listener.bind(("127.0.0.1", self.port))
+            self.listener.listen(64)
+            self.listener.settimeout(0.1)
+            threading.Thread(target=self._accept, args=(self.listener,), daemon=True).start()
+
+    def busy(self) -> None:
+        self.open()
+        self.state = "busy"
+        self._cut()
+
+    def close(self) -> None:
+        self.state, listener, self.listener = "closed", self.listener, None
+        if listener is not None:
+            listener.close()
+        self._cut()
+
+    def _cut(self) -> None:
+        for conn in list(self.live):
+            with contextlib.suppress(OSError):
+                conn.shutdown(socket.SHUT_RDWR)
+            conn.close()
+        self.live.clear()
+
+    def _accept(self, listener: socket.socket) -> None:
+        while self.listener is listener:
+            try:
+                conn, _ = listener.accept()
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            conn.settimeout(None)
+            handler = self._slow_down if self.state == "busy" else self._forward
+            threading.Thread(target=handler, args=(conn,), daemon=True).start()
+
+    def _slow_down(self, conn: socket.socket) -> None:
+        with conn, contextlib.suppress(OSError):
+            head = b""
+            while b"\r\n\r\n" not in head:
+                chunk = conn.recv(65536)
+                if not chunk:
+                    return
+                head += chunk
+            conn.sendall(SLOW_DOWN)
+
+    def _forward(self, conn: socket.socket) -> None:
+        try:
+            upstream = socket.create_connection(("127.0.0.1", self.target))
+        except OSError:
+            conn.close()
+            return
+        self.live.update((conn, upstream))
+        threading.Thread(target=_pipe, args=(upstream, conn), daemon=True).start()
+        _pipe(conn, upstream)
+
+
+def _pipe(source: socket.socket, target: socket.socket) -> None:
+    with contextlib.suppress(OSError):
+        while chunk := source.recv(65536):
+            target.sendall(chunk)
+    for end in (source, target):
+        with contextlib.suppress(OSError):
+            end.shutdown(socket.SHUT_RDWR)

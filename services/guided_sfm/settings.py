@@ -115,6 +115,10 @@ class Settings:
     def max_upload_bytes(self) -> int:
         return self.max_upload_mb * 1024 * 1024
 
+    def job_seconds(self, num_images: int) -> float:
+        """A job's time limit in a project of this many images: a base plus a share per image."""
+        return self.job_base_seconds + self.job_seconds_per_image * num_images
+
     def with_secret(self) -> Settings:
         """These settings with a signing key: the configured one, else one kept in the data dir."""
         if self.secret_key:

@@ -23,7 +23,7 @@ def on_s3(reconstructed, session, store, moto_server, monkeypatch, tmp_path):
     s3 = S3Store.from_url(f"s3://{moto_server.new_bucket()}/artifacts", moto_server.url)
     local = session.get(Version, reconstructed.vid)
     key = s3.publish(local.project_id, store.version_dir(local.path))
-    return local, SimpleNamespace(id=local.id, project_id=local.project_id, path=key), s3
+    return local, SimpleNamespace(id=local.id, project_id=local.project_id, path=key, parent_id=None), s3
 
 
 def test_scene_pairs_and_suspects_are_the_same_from_s3(on_s3, session, store):
@@ -43,3 +43,26 @@ def test_a_preview_is_the_same_from_s3(on_s3, session, store, reconstructed):
     expected = version_data.preview(session, store, row, local)
     assert expected["pairs_to_delete"]  # a preview that deletes something, or the check is empty
     assert version_data.preview(session, s3, row, remote) == expected
+
+
+def test_a_preview_or_compare_asked_again_reads_nothing_from_s3(on_s3, session, store):
+    """A version never changes: the same preview (same edit set body) or compare again is answered
+    from memory, without a request to S3; another body is computed afresh."""
+    local, remote, s3 = on_s3
+    calls = []
+    s3.client.meta.events.register("after-call.s3", lambda **_: calls.append(1))
+    run = next(r for r in version_data._suspects(session, store, local)["runs"] if r["proposal"])
+    row = EditSetRow(project_id=local.project_id, base_version_id=local.id,
+                     body={"cameras": run["proposal"]["cameras"]})
+    first = version_data.preview(session, s3, row, remote)
+    assert calls
+    calls.clear()
+    assert version_data.preview(session, s3, row, remote) == first and not calls
+    pair = first["pairs_to_delete"][0]
+    other = EditSetRow(project_id=local.project_id, base_version_id=local.id, body={"delete_pairs": [pair]})
+    assert version_data.preview(session, s3, other, remote)["pairs_to_delete"] == [pair] and calls
+    calls.clear()
+    compared = version_data.compare(session, s3, remote, remote)
+    assert compared["cameras"] and calls
+    calls.clear()
+    assert version_data.compare(session, s3, remote, remote) == compared and not calls

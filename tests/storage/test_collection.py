@@ -52,8 +52,8 @@ def test_unreferenced_keys_are_collected_and_referenced_ones_stay(any_store, ses
     removed = reconcile(session, any_store, grace_seconds=NEVER_FRESH)
     assert removed == {"projects": 1, "images": 1, "thumbs": 1, "versions": 1, "tmp": 0}
     assert not any_store.exists(image_key(pid, "orphan.jpg")) and not any_store.exists(thumb_key(pid, 999))
-    assert any_store.children(project_prefix(pid + 1000)) == {}
-    assert list(any_store.children(f"{project_prefix(pid)}/versions")) == [kept.rsplit("/", 1)[1]]
+    assert any_store.children(project_prefix(pid + 1000)) == []
+    assert any_store.children(f"{project_prefix(pid)}/versions") == [kept.rsplit("/", 1)[1]]
     assert orphan_version != kept
     assert any_store.exists(image_key(pid, "kept.jpg")) and any_store.exists(thumb_key(pid, image_id))
     with any_store.reading(kept) as root:

@@ -68,16 +68,43 @@ def test_a_missing_file_is_file_not_found(any_store, tmp_path):
         any_store.blob(thumb_key(PID, 1))
 
 
-def test_children_are_one_level_with_times(any_store, tmp_path):
+def test_children_are_one_level_and_changed_gives_times(any_store, tmp_path):
     any_store.put(image_key(PID, "a.jpg"), write(tmp_path / "a", b"a"))
     any_store.put(thumb_key(PID, 3), write(tmp_path / "t", b"t"))
     published, _ = publish(any_store)
     assert set(any_store.children(f"projects/{PID}")) >= {"images", "thumbs", "versions"}
-    assert list(any_store.children(f"projects/{PID}/images")) == ["a.jpg"]
-    versions = any_store.children(f"projects/{PID}/versions")
-    assert list(versions) == [published.rsplit("/", 1)[1]]
-    assert all(abs(changed - os.path.getmtime(tmp_path)) < 600 for changed in versions.values())
-    assert any_store.children(f"projects/{PID + 1}") == {}
+    assert any_store.children(f"projects/{PID}/images") == ["a.jpg"]
+    assert any_store.children(f"projects/{PID}/versions") == [published.rsplit("/", 1)[1]]
+    assert any_store.children(f"projects/{PID + 1}") == []
+    for key in (image_key(PID, "a.jpg"), published, f"projects/{PID}"):
+        assert abs(any_store.changed(key) - os.path.getmtime(tmp_path)) < 600, key
+    assert any_store.changed(image_key(PID, "b.jpg")) is None
+    assert any_store.changed(f"projects/{PID + 1}") is None
+
+
+def test_s3_children_list_one_level_page_by_page(moto_server, monkeypatch, temp_dir, tmp_path):
+    """Only the level asked for is listed (a delimiter), across pages: the reconciler's look at
+    `projects` costs one entry per project, not one per object of the bucket."""
+    from guided_sfm.storage import s3
+    from tests.s3server import CREDENTIALS
+
+    for name, value in CREDENTIALS.items():
+        monkeypatch.setenv(name, value)
+    store = S3Store.from_url(f"s3://{moto_server.new_bucket()}/pre", moto_server.url)
+    names = [f"{i}.jpg" for i in range(5)]
+    for name in names:
+        store.put(image_key(PID, name), write(tmp_path / name, b"x"))
+    publish(store)
+    store.put(image_key(PID + 1, "a.jpg"), write(tmp_path / "other", b"x"))
+    listed = []
+    store.client.meta.events.register("after-call.s3.ListObjectsV2", lambda parsed, **_: listed.append(
+        len(parsed.get("Contents", [])) + len(parsed.get("CommonPrefixes", []))))
+    monkeypatch.setattr(s3, "PAGE", 2)
+    assert store.children("projects") == [str(PID), str(PID + 1)]
+    assert sum(listed) == 2
+    listed.clear()
+    assert store.children(f"projects/{PID}/images") == sorted(names)
+    assert sum(listed) == len(names) and len(listed) == 3  # three pages of two
 
 
 def test_a_published_version_reads_back_as_it_was_staged(any_store):
@@ -168,7 +195,7 @@ def test_deleting_a_project_removes_every_key(any_store, tmp_path):
     publish(any_store)
     any_store.put(image_key(PID + 1, "a.jpg"), write(tmp_path / "b", b"b"))
     any_store.delete_project(PID)
-    assert any_store.children(f"projects/{PID}") == {}
+    assert any_store.children(f"projects/{PID}") == []
     assert any_store.exists(image_key(PID + 1, "a.jpg"))  # projects/8 is not under projects/7
 
 

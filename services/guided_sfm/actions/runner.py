@@ -90,7 +90,7 @@ def time_limit(sessions: sessionmaker[Session], settings: Settings, project_id: 
     """A job's time limit grows with its project: a base plus a share per image."""
     with session_scope(sessions) as session:
         count = session.scalar(select(func.count()).select_from(Image).where(Image.project_id == project_id))
-    return settings.job_base_seconds + settings.job_seconds_per_image * (count or 0)
+    return settings.job_seconds(count or 0)
 
 
 def run_job(sessions: sessionmaker[Session], settings: Settings, job_id: int) -> str | None:

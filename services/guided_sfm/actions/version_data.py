@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import threading
 from collections import OrderedDict
@@ -16,7 +17,16 @@ from guided_sfm.actions.ids import IdMap
 from guided_sfm.core.edits import parse_edits
 from guided_sfm.core.topdown import decimate_points
 from guided_sfm.core.triage.of_workspace import triage_workspace
-from guided_sfm.core.workspace import DATABASE, EDITS, JOINED, META, PRUNING, SCENE, SPARSE, Workspace
+from guided_sfm.core.workspace import (
+    DATABASE,
+    EDITS,
+    JOINED,
+    META,
+    PRUNING,
+    SCENE,
+    SPARSE,
+    Workspace,
+)
 from guided_sfm.db import queries
 from guided_sfm.db.models import EditSetRow, Version
 from guided_sfm.storage import Store
@@ -49,7 +59,7 @@ class _VersionCache:
         self.entries, self.lock = OrderedDict[str, Any](), threading.Lock()
 
     def get(self, session: Session, store: Store, version: Version, *args: Any) -> Any:
-        key = f"{store!r}:{version.path}|{args}"
+        key = f"{store!r}:{version.path}|{[_token(arg) for arg in args]}"
         with self.lock:
             if key in self.entries:
                 self.entries.move_to_end(key)
@@ -60,6 +70,14 @@ class _VersionCache:
             while len(self.entries) > self.size:
                 self.entries.popitem(last=False)
         return data
+
+
+def _token(arg: Any) -> str:
+    """An argument as a cache key: a version by its artifact key, a mapping (an edit set body, the
+    image rows) by its digest."""
+    if isinstance(arg, dict):
+        return hashlib.sha256(json.dumps(arg, sort_keys=True).encode()).hexdigest()
+    return str(getattr(arg, "path", None) or repr(arg))
 
 
 def _scene_bytes(session: Session, store: Store, version: Version, max_points: int | None = None) -> bytes:
@@ -126,11 +144,18 @@ def pairs(session: Session, store: Store, version: Version, image_id: int | None
 
 
 def preview(session: Session, store: Store, row: EditSetRow, base: Version) -> dict[str, Any]:
-    """What applying the edit set would delete; nothing is written."""
-    with ExitStack() as stack:
-        workspace = _workspace(stack, store, base)
-        ids = IdMap.load(session, base.project_id, workspace)
-        outcome = workspace.preview(parse_edits(ids.edits_body(row.body), workspace.image_ids()))
+    """What applying the edit set would delete; nothing is written. Cached by the base, the body
+    and the project's image rows (the REST ids): shown again (another viewer, a reload, the
+    review) it reads nothing of the version."""
+    return _preview_cache(session, store, base, row.body, queries.image_ids_by_name(session, base.project_id))
+
+
+def _preview(_session: Session, store: Store, base: Version, body: dict,
+             sql_by_name: dict[str, int]) -> dict[str, Any]:
+    with store.reading(base.path, only=(DATABASE, SPARSE + "/", SCENE)) as root:  # pairs, evidence, frame
+        workspace = Workspace(root)
+        ids = IdMap(sql_by_name, workspace.image_ids())
+        outcome = workspace.preview(parse_edits(ids.edits_body(body), workspace.image_ids()))
     return {
         "pairs_to_delete": ids.pairs(outcome.deleted),
         "components_before": outcome.components_before,
@@ -142,14 +167,29 @@ def preview(session: Session, store: Store, row: EditSetRow, base: Version) -> d
     }
 
 
+_preview_cache = _VersionCache(_preview).get
+
+
+def _ids(session: Session, store: Store, version: Version) -> IdMap:
+    """REST <-> COLMAP ids of a version: its names from the cached database read, the rows now."""
+    colmap_by_name, _ = _verified_cache(session, store, version)
+    return IdMap(queries.image_ids_by_name(session, version.project_id), colmap_by_name)
+
+
 def compare(session: Session, store: Store, version: Version, other: Version) -> dict[str, Any]:
-    with ExitStack() as stack:
-        other_ws = _workspace(stack, store, other)
-        ids = IdMap.load(session, other.project_id, other_ws)
-        between = _between(session, version, other)
-        edited = set().union(*(_edited(store, v) for v in between))
-        rows = _workspace(stack, store, version).compare(other_ws, edited)
-    return {"cameras": ids.rows(rows)}
+    return {"cameras": _ids(session, store, other).rows(_compare_cache(session, store, version, other))}
+
+
+def _compare(session: Session, store: Store, version: Version, other: Version) -> list[dict]:
+    """Rows in COLMAP ids of the other's images: two versions and the rounds between them never
+    change, so a compare asked again reads nothing."""
+    edited = set().union(*(_edited(store, v) for v in _between(session, version, other)))
+    with store.reading(version.path, only=(SPARSE + "/",)) as this, \
+            store.reading(other.path, only=(SPARSE + "/",)) as that:
+        return Workspace(this).compare(Workspace(that), edited)
+
+
+_compare_cache = _VersionCache(_compare).get
 
 
 def _edited(store: Store, version: Version) -> set[str]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import logging
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -18,6 +19,9 @@ from guided_sfm.core.errors import (
     MissingWorkspace,
     UnknownImage,
 )
+from guided_sfm.storage import StoreUnavailable
+
+log = logging.getLogger(__name__)
 
 STATUS: list[tuple[type[DomainError], int]] = [
     (errors.NotFound, 404),
@@ -70,6 +74,14 @@ async def database_unavailable(_request: Request, exc: OperationalError | Interf
                         status_code=503, headers={"Retry-After": "5"})
 
 
+async def store_unavailable(request: Request, exc: StoreUnavailable) -> JSONResponse:
+    """The artifact store (S3) did not answer or refused: like the database's outage, a 503 the
+    client may retry; the store's calls changed nothing the request committed."""
+    log.warning("%s %s: %s", request.method, request.url.path, exc, exc_info=exc.__cause__)
+    return JSONResponse({"detail": f"{exc}; nothing was stored, retry shortly"},
+                        status_code=503, headers={"Retry-After": "5"})
+
+
 async def disk_full(request: Request, exc: OSError) -> JSONResponse:
     """A full disk is the server's state, not a crash: 507, and the request stored nothing (every
     write goes through staging first). Any other OSError stays a 500."""
@@ -84,5 +96,6 @@ def install(app: FastAPI) -> None:
     app.add_exception_handler(RequestValidationError, validation_error)  # type: ignore[arg-type]
     app.add_exception_handler(DataError, unstorable_value)  # type: ignore[arg-type]
     app.add_exception_handler(OSError, disk_full)  # type: ignore[arg-type]
+    app.add_exception_handler(StoreUnavailable, store_unavailable)  # type: ignore[arg-type]
     for unavailable in (OperationalError, InterfaceError):
         app.add_exception_handler(unavailable, database_unavailable)  # type: ignore[arg-type]

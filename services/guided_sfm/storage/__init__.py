@@ -9,6 +9,7 @@ from typing import Protocol
 from guided_sfm.storage.base import (
     Blob,
     Store,
+    StoreUnavailable,
     UnpublishedVersion,
     image_key,
     link_file,
@@ -20,7 +21,7 @@ from guided_sfm.storage.base import (
 from guided_sfm.storage.local import ArtifactStore
 
 __all__ = ["ArtifactStore", "Blob", "Store", "UnpublishedVersion", "image_key", "link_file", "link_tree",
-           "open_store", "project_prefix", "thumb_key", "upload_key"]
+           "open_store", "project_prefix", "StoreUnavailable", "thumb_key", "upload_key"]
 
 
 class StoreSettings(Protocol):

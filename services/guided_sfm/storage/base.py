@@ -40,6 +40,11 @@ class UnpublishedVersion(FileNotFoundError):
     """A version key with no manifest: never published, or still being published."""
 
 
+class StoreUnavailable(Exception):
+    """The store did not answer as a store does (unreachable, refusing, overloaded, denying
+    access): the call read or changed nothing it reports, and may be tried again later."""
+
+
 @dataclass(frozen=True)
 class Blob:
     """A stored file as the API sends it: a local file, or a stream of chunks of a known size."""
@@ -70,8 +75,14 @@ class Store(ABC):
         """The file at key and everything under key + "/"; nothing when there is none."""
 
     @abstractmethod
-    def children(self, prefix: str) -> dict[str, float]:
-        """Names one level under prefix, each with the time it last changed (epoch seconds)."""
+    def children(self, prefix: str) -> list[str]:
+        """Names one level under prefix (files and folders), sorted; costs that level only."""
+
+    @abstractmethod
+    def changed(self, key: str) -> float | None:
+        """When the file or folder at key last changed (epoch seconds), None when there is none.
+        A folder's time: in the data dir its own (a published version keeps its staging time), on
+        S3 its newest object's (a version still uploading looks young)."""
 
     @abstractmethod
     def blob(self, key: str) -> Blob:

@@ -62,15 +62,15 @@ class ArtifactStore(Store):
         else:
             path.unlink(missing_ok=True)
 
-    def children(self, prefix: str) -> dict[str, float]:
+    def children(self, prefix: str) -> list[str]:
         folder = self.root / prefix
-        found = {}
-        for path in folder.iterdir() if folder.is_dir() else []:
-            try:
-                found[path.name] = path.lstat().st_mtime  # a revealed file keeps its staging time
-            except FileNotFoundError:
-                continue
-        return found
+        return sorted(path.name for path in folder.iterdir()) if folder.is_dir() else []
+
+    def changed(self, key: str) -> float | None:
+        try:
+            return (self.root / key).lstat().st_mtime  # a revealed file keeps its staging time
+        except FileNotFoundError:
+            return None
 
     def blob(self, key: str) -> Blob:
         path = self.root / key

@@ -6,6 +6,7 @@ scratch dir under the process's temp dir (TMPDIR), emptied when the job or reque
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -19,15 +20,45 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 import boto3
+from boto3.exceptions import Boto3Error
 from botocore.config import Config
-from botocore.exceptions import ClientError
+from botocore.exceptions import BotoCoreError, ClientError, ParamValidationError
 
-from guided_sfm.storage.base import Blob, Store, UnpublishedVersion, image_key, project_prefix
+from guided_sfm.storage.base import (
+    Blob,
+    Store,
+    StoreUnavailable,
+    UnpublishedVersion,
+    image_key,
+    project_prefix,
+)
 
 MANIFEST = "manifest.json"
 SCRATCH = "guided-sfm-scratch"  # under the temp dir; one folder per job or request, named by pid
 TRANSFERS = 8  # parallel downloads when a job fetches its inputs
 CHUNK = 1 << 20  # bytes per chunk when the API streams a file
+PAGE = 1000  # keys per listing request (S3's most)
+# a request waits this long for an endpoint that does not answer, and is tried this often in all
+# (botocore's "standard" retries back off between tries): an outage costs a request seconds, not minutes
+CONNECT_SECONDS, ATTEMPTS = 5, 3
+# what boto3 raises when the store, not the key, is the problem (a missing key is caught before)
+UNAVAILABLE = (ClientError, BotoCoreError, Boto3Error)
+
+
+def _reaching(method):
+    """The method's S3 errors as StoreUnavailable (the API's 503), naming the error, not the
+    endpoint."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except ParamValidationError:  # a call this code got wrong, not the store's state
+            raise
+        except UNAVAILABLE as exc:
+            raise StoreUnavailable(f"artifact store unavailable ({_reason(exc)})") from exc
+
+    return wrapper
 
 
 class S3Store(Store):
@@ -41,7 +72,9 @@ class S3Store(Store):
         AWS_DEFAULT_REGION itself."""
         url = urlsplit(artifacts_url)
         endpoint = endpoint_url or None
-        config = Config(s3={"addressing_style": "path"}) if endpoint else None  # MinIO, moto
+        retries = {"max_attempts": ATTEMPTS, "mode": "standard"}
+        config = Config(connect_timeout=CONNECT_SECONDS, retries=retries,
+                        s3={"addressing_style": "path"} if endpoint else None)  # path: MinIO, moto
         client = boto3.session.Session().client("s3", endpoint_url=endpoint, config=config)
         return cls(client, url.netloc, url.path)
 
@@ -53,12 +86,15 @@ class S3Store(Store):
 
     # -- single files -----------------------------------------------------------------------------
 
+    @_reaching
     def put(self, key: str, source: Path) -> None:
         self.client.upload_file(str(source), self.bucket, self._key(key))
 
+    @_reaching
     def put_bytes(self, key: str, data: bytes) -> None:
         self.client.put_object(Bucket=self.bucket, Key=self._key(key), Body=data)
 
+    @_reaching
     def fetch(self, key: str, target: Path) -> None:
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
@@ -66,6 +102,7 @@ class S3Store(Store):
         except ClientError as exc:
             raise _missing(exc, key) from exc
 
+    @_reaching
     def exists(self, key: str) -> bool:
         try:
             self.client.head_object(Bucket=self.bucket, Key=self._key(key))
@@ -75,21 +112,36 @@ class S3Store(Store):
                 return False
             raise
 
+    @_reaching
     def remove(self, key: str) -> None:
         keys = [self._key(key), *(k for k, _ in self._list(key + "/"))]
         for start in range(0, len(keys), 1000):  # S3's limit per request
             objects = [{"Key": k} for k in keys[start:start + 1000]]
             self.client.delete_objects(Bucket=self.bucket, Delete={"Objects": objects, "Quiet": True})
 
-    def children(self, prefix: str) -> dict[str, float]:
-        """Each child's time is its newest object's: a version still being uploaded looks young."""
-        found: dict[str, float] = {}
-        start = len(self._key(prefix)) + 1
-        for key, modified in self._list(prefix + "/"):
-            name = key[start:].split("/", 1)[0]
-            found[name] = max(found.get(name, 0.0), modified)
-        return found
+    @_reaching
+    def children(self, prefix: str) -> list[str]:
+        """One level, page by page: files and folders ("common prefixes") under prefix + "/"."""
+        start, found = len(self._key(prefix)) + 1, set()
+        for page in self._pages(prefix + "/", Delimiter="/"):
+            found.update(item["Key"][start:] for item in page.get("Contents", []))
+            found.update(item["Prefix"][start:].rstrip("/") for item in page.get("CommonPrefixes", []))
+        return sorted(found)
 
+    @_reaching
+    def changed(self, key: str) -> float | None:
+        """A folder's newest object (everything under it is listed), else the file's own time."""
+        newest = max((modified for _, modified in self._list(key + "/")), default=None)
+        if newest is not None:
+            return newest
+        try:
+            return self.client.head_object(Bucket=self.bucket, Key=self._key(key))["LastModified"].timestamp()
+        except ClientError as exc:
+            if _status(exc) == 404:
+                return None
+            raise
+
+    @_reaching
     def blob(self, key: str) -> Blob:
         try:
             answer = self.client.get_object(Bucket=self.bucket, Key=self._key(key))
@@ -99,11 +151,14 @@ class S3Store(Store):
 
     def _list(self, prefix: str) -> Iterator[tuple[str, float]]:
         """(full key, last modified) of every object under prefix."""
-        pages = self.client.get_paginator("list_objects_v2").paginate(Bucket=self.bucket,
-                                                                      Prefix=self._key(prefix))
-        for page in pages:
+        for page in self._pages(prefix):
             for item in page.get("Contents", []):
                 yield item["Key"], item["LastModified"].timestamp()
+
+    def _pages(self, prefix: str, **options) -> Iterator[dict]:
+        paginator = self.client.get_paginator("list_objects_v2")
+        return paginator.paginate(Bucket=self.bucket, Prefix=self._key(prefix), **options,
+                                  PaginationConfig={"PageSize": PAGE})
 
     # -- versions and scratch ---------------------------------------------------------------------
 
@@ -116,6 +171,7 @@ class S3Store(Store):
         finally:
             shutil.rmtree(path, ignore_errors=True)
 
+    @_reaching
     def publish(self, project_id: int, staged: Path, reuse_from: Sequence[str] = ()) -> str:
         version = f"{project_prefix(project_id)}/versions/{uuid.uuid4().hex}"
         known = {entry["sha256"]: entry for source in reuse_from
@@ -147,6 +203,7 @@ class S3Store(Store):
         with answer["Body"] as body:
             return json.loads(body.read())
 
+    @_reaching
     def checkout(self, version: str, scratch: Path, only: Sequence[str] | None = None) -> Path:
         manifest = self._manifest(version)
         target = Path(tempfile.mkdtemp(prefix="version-", dir=scratch))
@@ -162,6 +219,7 @@ class S3Store(Store):
             for done in [pool.submit(self.fetch, key, target) for key, target in pairs]:
                 done.result()
 
+    @_reaching
     def fetch_member(self, version: str, member: str, target: Path) -> bool:
         entry = self._manifest(version)["files"].get(member)
         if entry is None:
@@ -169,12 +227,14 @@ class S3Store(Store):
         self.fetch(entry["key"], target)
         return True
 
+    @_reaching
     def copy_version(self, project_id: int, version: str) -> str:
         """A new manifest naming the same objects: restore writes one small object."""
         copy = f"{project_prefix(project_id)}/versions/{uuid.uuid4().hex}"
         self._write_manifest(copy, self._manifest(version))
         return copy
 
+    @_reaching
     def images_for(self, project_id: int, names: Iterable[str], scratch: Path) -> Path:
         folder = scratch / "images"
         folder.mkdir(parents=True, exist_ok=True)
@@ -198,6 +258,14 @@ class S3Store(Store):
 
 def _status(exc: ClientError) -> int:
     return int(exc.response.get("ResponseMetadata", {}).get("HTTPStatusCode", 0))
+
+
+def _reason(exc: Exception) -> str:
+    """An S3 error code (SlowDown, AccessDenied, 500) or the kind of failure (no connection)."""
+    if isinstance(exc, ClientError):
+        return str(exc.response.get("Error", {}).get("Code", "") or _status(exc))
+    cause = (exc.__cause__ or exc.__context__) if isinstance(exc, Boto3Error) else None  # a transfer's
+    return _reason(cause) if isinstance(cause, UNAVAILABLE) else type(exc).__name__
 
 
 def _missing(exc: ClientError, key: str) -> Exception:

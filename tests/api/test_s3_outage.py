@@ -1,0 +1,84 @@
+"""The S3 store unavailable (its endpoint refusing connections, answering 503 SlowDown, or never
+there): the API answers 503 naming the artifact store, never 500, and stores nothing; once the
+store is back the API answers again. A TCP gate in front of moto's server takes the store away
+while the server keeps its objects."""
+
+import tempfile
+
+import pytest
+
+from guided_sfm.api.app import create_app
+from guided_sfm.db.models import Project, Version
+from guided_sfm.storage import open_store
+from tests.conftest import TestClient, make_settings
+from tests.factories import jpeg_bytes, make_project, signup
+from tests.s3server import CREDENTIALS, Gate, free_port
+
+
+@pytest.fixture
+def s3_env(tmp_path, monkeypatch):
+    for name, value in CREDENTIALS.items():
+        monkeypatch.setenv(name, value)
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))
+    monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR: the store's scratch goes there
+    (tmp_path / "tmp").mkdir()
+
+
+def _client(tmp_path, database_url, sessions, artifacts_url: str, endpoint: str) -> TestClient:
+    settings = make_settings(tmp_path / "data", database_url, artifacts_url=artifacts_url,
+                             s3_endpoint_url=endpoint)
+    return TestClient(create_app(settings, lambda _job: None, sessions=sessions))
+
+
+def _unavailable(response) -> bool:
+    return response.status_code == 503 and "artifact store unavailable" in response.json()["detail"]
+
+
+def _upload(client, headers, pid, name="a.jpg"):
+    files = [("files", (name, jpeg_bytes(), "image/jpeg"))]
+    return client.post(f"/api/v1/projects/{pid}/images", files=files, headers=headers)
+
+
+def test_an_endpoint_nobody_answers_is_503_and_stores_nothing(tmp_path, database_url, sessions, s3_env):
+    nobody = f"http://127.0.0.1:{free_port()}"  # a port nothing listens on
+    with _client(tmp_path, database_url, sessions, "s3://bucket/art", nobody) as client:
+        owner = signup(client, "owner")
+        answer = client.post("/api/v1/projects", json={"name": "p"}, headers=owner)  # clears its keys
+        assert _unavailable(answer), answer.text
+        assert client.get("/api/v1/projects", headers=owner).json() == []
+
+
+@pytest.mark.parametrize("fault", ["close", "busy"])
+def test_a_store_that_goes_away_is_503_and_nothing_changes(fault, tmp_path, database_url, sessions, session,
+                                                          s3_env, moto_server, tiny_reconstruction):
+    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
+    try:
+        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
+            owner = signup(client, "owner")
+            pid = make_project(client, owner)
+            image = _upload(client, owner, pid).json()[0]
+            path = open_store(client.app.state.settings).publish(pid, tiny_reconstruction)
+            version = Version(project_id=pid, kind="reconstruct", message="t", path=path, stats={})
+            session.add(version)
+            session.flush()
+            session.get(Project, pid).head_version_id = version.id
+            session.commit()
+            keys = set(moto_server.objects(bucket))
+            getattr(gate, fault)()
+
+            api = f"/api/v1/projects/{pid}"
+            for path in (f"{api}/images/{image['id']}/thumbnail", f"{api}/images/{image['id']}/file",
+                         f"{api}/versions/{version.id}/scene", f"{api}/versions/{version.id}/pairs"):
+                answer = client.get(path, headers=owner)
+                assert _unavailable(answer), (path, answer.status_code, answer.text)
+            assert _unavailable(_upload(client, owner, pid, "b.jpg"))
+            assert _unavailable(client.post(f"{api}/versions/{version.id}/restore", headers=owner))
+            assert [i["name"] for i in client.get(f"{api}/images", headers=owner).json()] == ["a.jpg"]
+            assert [v["id"] for v in client.get(f"{api}/versions", headers=owner).json()] == [version.id]
+            assert set(moto_server.objects(bucket)) == keys  # nothing stored, nothing lost
+
+            gate.open()
+            assert client.get(f"{api}/images/{image['id']}/thumbnail", headers=owner).status_code == 200
+            assert _upload(client, owner, pid, "b.jpg").status_code == 201
+    finally:
+        gate.close()
