@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from guided_sfm.core.triage import poses2d
+from guided_sfm.core.triage import other_models, poses2d
 from guided_sfm.core.triage.pieces import LOOSE, PLACED, Piece
 from guided_sfm.core.triage.signals import BREAK_STEPS, turn_deg
 
@@ -97,6 +97,7 @@ def place_pieces(pieces: list[Piece], step: float, anchors: list = ()) -> Placem
         placed, trusted[i] = _place_after(_flipped(pieces[i]), _reverse(poses[i + 1]), step)
         poses[i] = _reverse(placed)
     _between_trusted(pieces, poses, trusted, step)
+    other_models.place_other_models(pieces, poses, trusted, step)
     _to_anchors(pieces, poses, trusted, anchors, step)
     return Placement(poses, trusted, anchor)
 

@@ -89,8 +89,8 @@ def _capture_order(data: TriageInput) -> list:
 
 
 def _run(piece: Piece, poses: np.ndarray, anchor: Piece, pairs: dict) -> Run:
-    if piece.kind != PLACED and not _linked(piece, pairs):
-        # nothing in the matches says where it belongs: the user places it (a group move)
+    if piece.kind == LOOSE and not _linked(piece, pairs):
+        # no pair at all: a re-map cannot register it wherever it is put
         return Run(piece.image_ids, _run_reason(piece, anchor) + _UNLINKED, None)
     proposal = [CameraEdit(c.image_id, float(p[0]), float(p[1]),
                            float((np.degrees(p[2]) + 180.0) % 360.0 - 180.0))
