@@ -67,7 +67,8 @@ def triage(data: TriageInput) -> Triage:
         return Triage([], [])
     moved = [i for i, piece in enumerate(pieces) if not placement.trusted[i]]
     share = signals.typical_share(cameras, data.pairs, data.shared_points)
-    suspects = [_judge(c, pieces, placement, i, data, share)
+    conflicts = signals.conflicts_by_image(data.pairs, data.shared_points, share)
+    suspects = [_judge(c, pieces, placement, i, data, conflicts)
                 for i, piece in enumerate(pieces) if piece.kind == PLACED for c in piece.cameras]
     suspects.sort(key=lambda s: (-s.score, s.image_id))
     scores = {s.image_id: s.score for s in suspects}
@@ -134,11 +135,12 @@ def _boundary_reasons(piece: Piece) -> tuple[list[str], float, bool]:
     return reasons, longest, conflict
 
 
-def _camera_reasons(camera, data: TriageInput, share: float) -> tuple[list[str], bool, bool]:
-    """(reasons, has conflicting pairs, misses what others see) of one camera; share: the
-    capture's typical share of inliers held as 3D points."""
+def _camera_reasons(camera, data: TriageInput,
+                    conflicts_of: dict[int, list]) -> tuple[list[str], bool, bool]:
+    """(reasons, has conflicting pairs, misses what others see) of one camera; conflicts_of:
+    signals.conflicts_by_image against the capture's typical share."""
     reasons = []
-    conflicts = signals.conflict_pairs(camera.image_id, data.pairs, data.shared_points, share)
+    conflicts = conflicts_of.get(camera.image_id, [])
     if conflicts:
         worst = max(conflicts, key=lambda c: c[1])
         other = data.scene.camera(worst[0][0] if worst[0][1] == camera.image_id else worst[0][1])
@@ -154,9 +156,9 @@ def _camera_reasons(camera, data: TriageInput, share: float) -> tuple[list[str],
 
 
 def _judge(camera, pieces: list[Piece], placement: Placement, index: int,
-           data: TriageInput, share: float) -> Suspect:
+           data: TriageInput, conflicts_of: dict[int, list]) -> Suspect:
     piece, anchor = pieces[index], pieces[placement.anchor]
-    own, has_conflicts, missing = _camera_reasons(camera, data, share)
+    own, has_conflicts, missing = _camera_reasons(camera, data, conflicts_of)
     if placement.trusted[index]:
         at_break = camera in (piece.cameras[0], piece.cameras[-1]) and (
             piece.break_before or piece.break_after)
