@@ -2,7 +2,8 @@
 workspace (benchmarks/synthetic_workspace.py: pycolmap, no pixels, 200 model points per camera)
 at each size, cold (a fresh process that has read nothing of it yet) and cached (again in the
 same process), median of the repeats, with the load average before and after (2 shared cores:
-read the figures against it) and the share of each stage in one cold run.
+read the wall-clock figures against it; the cold run's CPU seconds are steadier) and the seconds
+of each stage in one cold run.
 
     .venv/bin/python benchmarks/bench_suspects.py --work DIR [--cameras 300 1000] [--repeats 3]
         [--json]
@@ -55,14 +56,15 @@ def timed_runs(root: Path, runs: int) -> dict:
     evidence.gather = clocked("evidence", evidence.gather)
     two_view.anchors_of = clocked("two_view", two_view.anchors_of)
     of_workspace.triage = clocked("judge", suspects.triage)
-    seconds, result = [], None
+    seconds, cpu, result = [], [], None
     for index in range(runs):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         result = triage_workspace(Workspace(root))
         seconds.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
         if index == 0:
             first = dict(stages)
-    return {"seconds": seconds, "stages": {k: round(v, 3) for k, v in first.items()},
+    return {"seconds": seconds, "cpu": cpu, "stages": {k: round(v, 3) for k, v in first.items()},
             "cameras": len(result.suspects), "raised": sum(s.score >= suspects.RAISE_SCORE
                                                             for s in result.suspects),
             "runs": len(result.runs)}
@@ -71,14 +73,16 @@ def timed_runs(root: Path, runs: int) -> dict:
 def cold_and_cached(root: Path, repeats: int) -> dict:
     """Cold: the first triage in each of `repeats` fresh processes; cached: the later triages
     of one process. Medians, and every figure."""
-    colds, cached, last = [], [], None
+    colds, cached, cpu, last = [], [], [], None
     for _ in range(repeats):
         out = subprocess.run([sys.executable, __file__, "--one", str(root), "--runs",
                               str(repeats + 1)], capture_output=True, text=True, check=True)
         last = json.loads(out.stdout.strip().splitlines()[-1])
         colds.append(last["seconds"][0])
         cached.extend(last["seconds"][1:])
+        cpu.append(last["cpu"][0])
     return {"cold_s": round(statistics.median(colds), 3), "cached_s": round(statistics.median(cached), 3),
+            "cold_cpu_s": round(statistics.median(cpu), 3),
             "cold_all": [round(s, 3) for s in colds], "cached_all": [round(s, 3) for s in cached],
             "stages_cold": last["stages"], "suspects": last["cameras"], "raised": last["raised"],
             "runs": last["runs"]}
@@ -107,7 +111,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     print(f"load average before {_load(report['load_before'])}, after {_load(report['load_after'])}")
     for cameras, row in report["sizes"].items():
-        print(f"{cameras:>5} cameras: cold {row['cold_s']:.2f} s {row['cold_all']}, cached "
+        print(f"{cameras:>5} cameras: cold {row['cold_s']:.2f} s {row['cold_all']} (CPU "
+              f"{row['cold_cpu_s']:.2f} s), cached "
               f"{row['cached_s']:.2f} s; cold stages {row['stages_cold']}; "
               f"{row['raised']} raised, {row['runs']} runs")
     return 0

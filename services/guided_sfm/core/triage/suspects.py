@@ -110,7 +110,8 @@ def _linked(piece: Piece, pairs: dict) -> bool:
 
 def _run_reason(piece: Piece, anchor: Piece) -> str:
     if piece.kind == GROUP:
-        return f"{piece.names}: model {piece.cameras[0].model}, apart from the largest"
+        return (f"{piece.names}: model {piece.cameras[0].model}, apart from the largest; moved as "
+                "one piece to continue the capture from its neighbours across the gap")
     if piece.kind == LOOSE:
         return f"{piece.names}: in no model"
     return (f"{piece.names}: {len(piece.cameras)} cameras placed continuously but apart from "
