@@ -6,8 +6,11 @@ read the wall-clock figures against it; the cold run's CPU seconds are steadier)
 of each stage in one cold run.
 
     .venv/bin/python benchmarks/bench_suspects.py --work DIR [--cameras 300 1000] [--repeats 3]
-        [--json]
-A size's workspace is written once under DIR/hall-<cameras>/ and reused.
+        [--api] [--json]
+A size's workspace is written once under DIR/hall-<cameras>/ and reused. With --api, the
+workspace is also imported into a `guided-sfm serve` of its own (bench_editor_api.py) and
+GET .../versions/{vid}/suspects is timed: the first request after each server start (the server
+computes and caches the answer), then once more (cached).
 """
 
 from __future__ import annotations
@@ -88,11 +91,46 @@ def cold_and_cached(root: Path, repeats: int) -> dict:
             "runs": last["runs"]}
 
 
+def route_times(root: Path, repeats: int) -> dict:
+    """Seconds of GET .../suspects: the first request after each of `repeats` server starts,
+    and the request after it (the server's version cache)."""
+    import signal
+    import tempfile
+
+    import httpx
+    from bench_editor_api import imported, serve
+
+    cold, cached = [], []
+    with tempfile.TemporaryDirectory(prefix="bench-suspects-") as tmp:
+        data, port = Path(tmp) / "data", 20000 + os.getpid() % 20000
+        data.mkdir()
+        url, token, pid, vid = f"http://127.0.0.1:{port}", None, None, None
+        for _ in range(repeats):
+            server = serve(data, port)
+            try:
+                if token is None:
+                    token, pid, vid = imported(url, root)
+                route = f"{url}/api/v1/projects/{pid}/versions/{vid}/suspects"
+                for times in (cold, cached):
+                    start = time.perf_counter()
+                    response = httpx.get(route, headers={"Authorization": f"Bearer {token}"},
+                                         timeout=600)
+                    response.raise_for_status()
+                    times.append(time.perf_counter() - start)
+            finally:
+                server.send_signal(signal.SIGTERM)
+                server.wait(timeout=60)
+    return {"route_cold_s": round(statistics.median(cold), 3),
+            "route_cached_s": round(statistics.median(cached), 3),
+            "route_cold_all": [round(s, 3) for s in cold]}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--work", type=Path)
     parser.add_argument("--cameras", nargs="*", type=int, default=[300, 1000])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--api", action="store_true", help="also time the REST route")
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--one", type=Path, help=argparse.SUPPRESS)  # a child: time one workspace
     parser.add_argument("--runs", type=int, default=1, help=argparse.SUPPRESS)
@@ -104,7 +142,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--work is required")
     report = {"load_before": os.getloadavg(), "sizes": {}}
     for cameras in args.cameras:
-        report["sizes"][cameras] = cold_and_cached(workspace_of(args.work, cameras), args.repeats)
+        root = workspace_of(args.work, cameras)
+        report["sizes"][cameras] = cold_and_cached(root, args.repeats)
+        if args.api:
+            report["sizes"][cameras] |= route_times(root, args.repeats)
     report["load_after"] = os.getloadavg()
     if args.json:
         print(json.dumps(report))
@@ -115,6 +156,9 @@ def main(argv: list[str] | None = None) -> int:
               f"{row['cold_cpu_s']:.2f} s), cached "
               f"{row['cached_s']:.2f} s; cold stages {row['stages_cold']}; "
               f"{row['raised']} raised, {row['runs']} runs")
+        if "route_cold_s" in row:
+            print(f"{cameras:>5} cameras: GET .../suspects cold {row['route_cold_s']:.2f} s "
+                  f"{row['route_cold_all']}, cached {row['route_cached_s']:.3f} s")
     return 0
 
 
