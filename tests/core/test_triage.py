@@ -5,6 +5,7 @@ import pytest
 
 from guided_sfm.core.triage import other_models, poses2d, signals
 from guided_sfm.core.triage.evidence import MissingCount, TriageInput
+from guided_sfm.core.triage.pieces import GROUP, PLACED, Piece
 from guided_sfm.core.triage.suspects import RAISE_SCORE, triage
 from guided_sfm.core.types import GroundFrame, SceneCamera, TopDownScene, pair_key
 
@@ -149,19 +150,27 @@ def u_turn():
     return out + arc + back  # 9 + 7 + 8 cameras; the arc is 9-15
 
 
-def test_another_model_is_turned_across_a_gap_the_way_the_capture_turns_at_its_edges():
+@pytest.mark.parametrize("backwards", [False, True])
+def test_another_model_is_turned_across_a_gap_the_way_the_capture_turns_at_its_edges(backwards):
     walk = u_turn()
     n = len(walk)
-    registered = [i <= 11 for i in range(n)]  # the largest model ends two steps into the arc
+    # by index along the walk out: the largest model ends two steps into the arc (0-11), 12 and
+    # 13 are in no model, the other model is 14 on; backwards, the capture walks it in reverse
+    order = list(range(n))[::-1] if backwards else list(range(n))
+    walk = [walk[o] for o in order]
+    registered = [o <= 11 for o in order]
+    other = {i for i, o in enumerate(order) if o >= 14}
     moved = np.array([30.0, 7.0, np.radians(137.0)])  # the other model's own frame
     groups = {}
-    for i in range(14, n):  # 12 and 13 are in no model
+    for i in other:
         x, y, yaw = poses2d.compose(moved, poses2d.pose(*walk[i]))
         groups[i] = {"x": x, "y": y, "yaw_deg": np.degrees(yaw)}
     data = capture(walk, walk, registered, groups)
-    cut = {k: v for k, v in data.pairs.items() if (k[0] > 14) == (k[1] > 14)}
+    cut = {k: v for k, v in data.pairs.items() if (k[0] - 1 in other) == (k[1] - 1 in other)}
     runs = triage(TriageInput(data.scene, cut, data.shared_points)).runs
-    assert [r.image_ids[0] for r in runs] == [13, 15]
+    loose = {i for i, o in enumerate(order) if o in (12, 13)}
+    assert sorted(sorted(r.image_ids) for r in runs) == sorted([sorted(i + 1 for i in other),
+                                                                sorted(i + 1 for i in loose)])
     for run in runs:  # the loose cameras on the walk across the gap, the model beyond it
         for edit in run.proposal:
             x, y, yaw = walk[edit.image_id - 1]
@@ -187,3 +196,17 @@ def test_true_neighbours_the_model_cannot_hold_break_even_a_short_step():
     steps = signals.steps_between(data.scene.cameras, data.pairs, data.shared_points)
     assert steps[6].length_steps < signals.BREAK_STEPS and steps[6].conflict and steps[6].breaks
     assert raised(triage(data)) == set(range(7, 12))
+
+
+def test_a_model_between_two_trusted_stretches_is_fitted_to_the_walks_from_both():
+    ring = [poses2d.pose(*p) for p in orbit(n=30)]
+    cams = [camera(i, 0.0, 0.0, 0.0, registered=not 10 <= i < 20) for i in range(30)]
+    moved = poses2d.apply(np.array([12.0, -3.0, 2.0]), np.array(ring[10:20]))
+    pieces = [Piece(PLACED, cams[:10], np.array(ring[:10])), Piece(GROUP, cams[10:20], moved),
+              Piece(PLACED, cams[20:], np.array(ring[20:]))]
+    poses = [p.poses for p in pieces]
+    other_models.place_other_models(pieces, poses, [True, False, True], 1.0)
+    assert poses[1] == pytest.approx(np.array(ring[10:20]))
+    poses = [p.poses for p in pieces]
+    other_models.place_other_models(pieces, poses, [True, False, False], 1.0)  # one side only
+    assert poses[1] == pytest.approx(np.array(ring[10:20]))
