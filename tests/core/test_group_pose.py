@@ -8,7 +8,7 @@ from guided_sfm.core import geometry
 from guided_sfm.core.colmap_model import model_poses, to_sim3d
 from guided_sfm.core.join_groups import join_placed
 from guided_sfm.core.metrics import Similarity
-from guided_sfm.core.types import CameraEdit
+from guided_sfm.core.types import CameraEdit, GroundFrame
 from tests.core.test_topdown import _build, _model
 
 LARGEST = [(f"a{i}.png", i + 1, (2.0 * i, 0.0, 1.5), 90.0 + 5 * (i % 2)) for i in range(5)]
@@ -48,18 +48,28 @@ def test_a_sub_model_keeps_its_shape_beside_the_largest(scene_and_models):
     np.testing.assert_allclose(turns, np.diff([y for *_, y in OTHER]), atol=1e-6)
 
 
-def test_a_placed_sub_model_joins_the_largest_where_it_was_placed(scene_and_models):
-    scene, models = scene_and_models
+def true_placements(frame: GroundFrame) -> list[CameraEdit]:
+    """Each camera of the other model where it truly is, on the frame's 2D view."""
     placements = []
     for name, image_id, center, yaw in OTHER:
-        x, y = scene.frame.to_2d(np.array([center]))[0]
-        placements.append(CameraEdit(image_id, float(x), float(y),
-                                     float(geometry.yaw_in_frame(
-                                         geometry.viewing_direction(
-                                             _model([(name, image_id, center, yaw)])
-                                             .image(image_id).cam_from_world().rotation.matrix()),
-                                         scene.frame))))
-    merged, joined = join_placed(models, placements, scene.frame)
+        x, y = frame.to_2d(np.array([center]))[0]
+        rotation = _model([(name, image_id, center, yaw)]).image(image_id).cam_from_world().rotation
+        placements.append(CameraEdit(image_id, float(x), float(y), float(geometry.yaw_in_frame(
+            geometry.viewing_direction(rotation.matrix()), frame))))
+    return placements
+
+
+def tilted(frame: GroundFrame, degrees: float) -> GroundFrame:
+    """The frame turned about its x axis: the ground a wall's points can suggest."""
+    turn = geometry.rotations_about(frame.x_axis, np.radians([degrees]))[0]
+    return GroundFrame(frame.origin, frame.x_axis, turn @ frame.y_axis, turn @ frame.up)
+
+
+@pytest.mark.parametrize("tilt_deg", [0.0, 25.0])
+def test_a_placed_sub_model_joins_the_largest_where_it_was_placed(scene_and_models, tilt_deg):
+    scene, models = scene_and_models
+    frame = tilted(scene.frame, tilt_deg)
+    merged, joined = join_placed(models, true_placements(frame), frame)
     assert len(merged) == 1 and joined == {i for _, i, _, _ in OTHER}
     poses = model_poses(merged[0])
     for _name, image_id, center, _ in OTHER:

@@ -5,8 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from guided_sfm.core.triage import poses2d, signals, symmetry
+from guided_sfm.core.triage import other_models, poses2d, signals, symmetry
 from guided_sfm.core.triage.evidence import MissingCount, TriageInput
+from guided_sfm.core.triage.pieces import GROUP, PLACED, Piece
 from guided_sfm.core.triage.suspects import RAISE_SCORE, triage
 from guided_sfm.core.types import GroundFrame, SceneCamera, TopDownScene, pair_key
 
@@ -130,14 +131,64 @@ def test_continuing_a_circle_stays_on_it_and_a_rigid_fit_recovers_a_motion():
     assert poses2d.fit_rigid(source, poses2d.apply(motion, source), 1.0) == pytest.approx(motion)
 
 
-def test_a_model_no_pair_links_to_the_rest_gets_no_proposal():
+def test_a_model_no_pair_links_to_the_rest_is_proposed_where_the_capture_continues():
     walk = straight(10)
     registered = [True] * 6 + [False] * 4
     groups = {i: {"x": 40.0 + i, "y": 7.0, "yaw_deg": walk[i][2]} for i in range(6, 10)}
     data = capture(walk, walk, registered, groups)
     cut = {k: n for k, n in data.pairs.items() if (k[0] > 6) == (k[1] > 6)}
     (run,) = triage(TriageInput(data.scene, cut, data.shared_points)).runs
-    assert run.image_ids == [7, 8, 9, 10] and run.proposal is None and "no verified pair" in run.reason
+    assert run.image_ids == [7, 8, 9, 10] and "no verified pair" not in run.reason
+    assert [round(e.x) for e in run.proposal] == [6, 7, 8, 9]
+
+
+def u_turn():
+    """Out along +x facing +y, a turn on the spot (an arc of radius 2, 30 deg a step), back
+    along -x facing -y: every step on the arc is the same motion in its camera's frame."""
+    out = [(float(i), 0.0, 90.0) for i in range(9)]
+    arc = [(9.0 + 2 * np.cos(np.radians(a)), -2.0 + 2 * np.sin(np.radians(a)), a)
+           for a in range(90, -91, -30)]
+    back = [(8.0 - i, -4.0, -90.0) for i in range(8)]
+    return out + arc + back  # 9 + 7 + 8 cameras; the arc is 9-15
+
+
+@pytest.mark.parametrize("backwards", [False, True])
+def test_another_model_is_turned_across_a_gap_the_way_the_capture_turns_at_its_edges(backwards):
+    walk = u_turn()
+    n = len(walk)
+    # by index along the walk out: the largest model ends two steps into the arc (0-11), 12 and
+    # 13 are in no model, the other model is 14 on; backwards, the capture walks it in reverse
+    order = list(range(n))[::-1] if backwards else list(range(n))
+    walk = [walk[o] for o in order]
+    registered = [o <= 11 for o in order]
+    other = {i for i, o in enumerate(order) if o >= 14}
+    moved = np.array([30.0, 7.0, np.radians(137.0)])  # the other model's own frame
+    groups = {}
+    for i in other:
+        x, y, yaw = poses2d.compose(moved, poses2d.pose(*walk[i]))
+        groups[i] = {"x": x, "y": y, "yaw_deg": np.degrees(yaw)}
+    data = capture(walk, walk, registered, groups)
+    cut = {k: v for k, v in data.pairs.items() if (k[0] - 1 in other) == (k[1] - 1 in other)}
+    runs = triage(TriageInput(data.scene, cut, data.shared_points)).runs
+    loose = {i for i, o in enumerate(order) if o in (12, 13)}
+    assert sorted(sorted(r.image_ids) for r in runs) == sorted([sorted(i + 1 for i in other),
+                                                                sorted(i + 1 for i in loose)])
+    for run in runs:  # the loose cameras on the walk across the gap, the model beyond it
+        for edit in run.proposal:
+            x, y, yaw = walk[edit.image_id - 1]
+            assert np.hypot(edit.x - x, edit.y - y) < 1e-6
+            assert signals.turn_deg(edit.yaw_deg, yaw) < 1e-6
+
+
+def test_a_bridge_walks_on_at_the_mean_of_its_edge_steps_from_either_side():
+    ring = [poses2d.pose(*p) for p in orbit(n=24)]
+    elsewhere = np.array([-5.0, 2.0, 1.0])
+    after = poses2d.apply(elsewhere, np.array(ring[10:14]))
+    trail = other_models.bridge(np.array(ring[:7]), after, 3, 1.0)
+    assert trail == pytest.approx(np.array(ring[7:11]))
+    back = other_models.bridge(np.array(ring[10:14])[::-1], poses2d.apply(elsewhere, ring[:7])[::-1],
+                               3, 1.0)
+    assert back == pytest.approx(np.array(ring[6:10])[::-1])
 
 
 def test_true_neighbours_the_model_cannot_hold_break_even_a_short_step():
@@ -173,3 +224,17 @@ def test_a_run_that_jumped_for_real_goes_where_its_look_alike_matches_put_it():
     for edit, true in zip(run.proposal, truth[7:], strict=True):
         assert np.hypot(edit.x - true[0], edit.y - true[1]) < 0.3
         assert signals.turn_deg(edit.yaw_deg, true[2]) < 5
+
+
+def test_a_model_between_two_trusted_stretches_is_fitted_to_the_walks_from_both():
+    ring = [poses2d.pose(*p) for p in orbit(n=30)]
+    cams = [camera(i, 0.0, 0.0, 0.0, registered=not 10 <= i < 20) for i in range(30)]
+    moved = poses2d.apply(np.array([12.0, -3.0, 2.0]), np.array(ring[10:20]))
+    pieces = [Piece(PLACED, cams[:10], np.array(ring[:10])), Piece(GROUP, cams[10:20], moved),
+              Piece(PLACED, cams[20:], np.array(ring[20:]))]
+    poses = [p.poses for p in pieces]
+    other_models.place_other_models(pieces, poses, [True, False, True], 1.0)
+    assert poses[1] == pytest.approx(np.array(ring[10:20]))
+    poses = [p.poses for p in pieces]
+    other_models.place_other_models(pieces, poses, [True, False, False], 1.0)  # one side only
+    assert poses[1] == pytest.approx(np.array(ring[10:20]))

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import geometry, metrics
+from guided_sfm.core import geometry, ground_plane, metrics
 from guided_sfm.core.colmap_model import model_poses, to_sim3d
 from guided_sfm.core.group_pose import spacing
 from guided_sfm.core.types import CameraEdit, GroundFrame
@@ -29,11 +29,17 @@ def placed_groups(models: list[pycolmap.Reconstruction], placements: list[Camera
     return out
 
 
-def _lifted(edit: CameraEdit, frame: GroundFrame, height: float) -> tuple[np.ndarray, np.ndarray]:
-    """A placement's centre (at the largest model's camera height) and heading, in 3D."""
+def _lifted(edit: CameraEdit, frame: GroundFrame, up: np.ndarray,
+            level: float) -> tuple[np.ndarray, np.ndarray]:
+    """A placement's centre and heading in 3D: the frame's plane lifted along the frame's up onto
+    the plane at the largest model's camera height along its cameras' mean up (level), so that a
+    ground frame tilted from the cameras' up (a plane fitted to a wall) does not tilt the join."""
     yaw = np.radians(edit.yaw_deg)
-    center = frame.origin + edit.x * frame.x_axis + edit.y * frame.y_axis + height * frame.up
-    return center, np.cos(yaw) * frame.x_axis + np.sin(yaw) * frame.y_axis
+    along = float(frame.up @ up)
+    base = frame.origin + edit.x * frame.x_axis + edit.y * frame.y_axis
+    flat = np.cos(yaw) * frame.x_axis + np.sin(yaw) * frame.y_axis
+    heading = flat - (flat @ up) / along * frame.up
+    return base + (level - base @ up) / along * frame.up, heading / np.linalg.norm(heading)
 
 
 def _horizontal(direction: np.ndarray, up: np.ndarray) -> np.ndarray:
@@ -42,25 +48,25 @@ def _horizontal(direction: np.ndarray, up: np.ndarray) -> np.ndarray:
 
 
 def group_similarity(model: pycolmap.Reconstruction, placements: list[CameraEdit],
-                     frame: GroundFrame, height: float, largest_spacing: float
+                     frame: GroundFrame, up: np.ndarray, level: float, largest_spacing: float
                      ) -> metrics.Similarity | None:
     """The similarity carrying the sub-model onto its placements: centres onto the placed
-    centres, headings onto the placed yaws, its cameras' mean up onto the scene's up."""
+    centres, headings onto the placed yaws, its cameras' mean up onto the largest model's
+    cameras' mean up (up; level: their height along it)."""
     poses = model_poses(model)
     edits = [c for c in placements if c.image_id in poses]
     if not edits:
         return None
-    ups = np.array([geometry.camera_up(poses[c.image_id].rotation) for c in edits])
-    up = ups.mean(axis=0) / np.linalg.norm(ups.mean(axis=0))
+    own_up = ground_plane.mean_up([geometry.camera_up(poses[c.image_id].rotation) for c in edits])
     src_c = np.array([poses[c.image_id].center for c in edits])
-    src_d = np.array([_horizontal(geometry.viewing_direction(poses[c.image_id].rotation), up)
+    src_d = np.array([_horizontal(geometry.viewing_direction(poses[c.image_id].rotation), own_up)
                       for c in edits])
-    lifted = [_lifted(c, frame, height) for c in edits]
+    lifted = [_lifted(c, frame, up, level) for c in edits]
     dst_c, dst_d = np.array([p for p, _ in lifted]), np.array([d for _, d in lifted])
     own = spacing(src_c) or 1.0
     scale = largest_spacing / own if largest_spacing > 0 else 1.0
-    src = np.vstack([src_c, src_c + own * src_d, src_c + own * up])
-    dst = np.vstack([dst_c, dst_c + own * scale * dst_d, dst_c + own * scale * frame.up])
+    src = np.vstack([src_c, src_c + own * src_d, src_c + own * own_up])
+    dst = np.vstack([dst_c, dst_c + own * scale * dst_d, dst_c + own * scale * up])
     s, rotation, translation = metrics.umeyama(src, dst)
     return metrics.Similarity(s, rotation, translation)
 
@@ -93,10 +99,11 @@ def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEd
     largest = pycolmap.Reconstruction(models[0])
     poses = sorted(model_poses(largest).values(), key=lambda p: p.name)
     centers = np.array([p.center for p in poses])
-    height = float(np.median((centers - frame.origin) @ frame.up))
+    up = ground_plane.mean_up([geometry.camera_up(p.rotation) for p in poses])
+    level = float(np.median(centers @ up))
     joined: set[int] = set()
     for index in groups:
-        sim = group_similarity(models[index], placements, frame, height, spacing(centers))
+        sim = group_similarity(models[index], placements, frame, up, level, spacing(centers))
         if sim is None:
             continue
         other = pycolmap.Reconstruction(models[index])

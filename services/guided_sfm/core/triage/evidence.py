@@ -101,28 +101,33 @@ def typical_step(scene: TopDownScene) -> float:
     return float(np.median(steps)) if len(steps) else 1.0
 
 
-def _near_others(scene: TopDownScene, image_id: int, radius: float, window: int) -> list[int]:
-    """Registered cameras placed within radius of this one, more than window apart in capture order."""
-    me = scene.camera(image_id)
-    return [c.image_id for c in scene.cameras
-            if c.registered and abs(c.seq - me.seq) > window
-            and np.hypot(c.x - me.x, c.y - me.y) <= radius]
+def _near_others(scene: TopDownScene, radius: float, window: int) -> dict[int, np.ndarray]:
+    """Per registered camera: the registered cameras placed within radius of it, more than
+    window apart in capture order."""
+    placed = [c for c in scene.cameras if c.registered]
+    ids = np.array([c.image_id for c in placed], dtype=np.int64)
+    seq = np.array([c.seq for c in placed])
+    xy = np.array([(c.x, c.y) for c in placed]).reshape(-1, 2)
+    return {int(i): ids[(np.abs(seq - s) > window) & (np.hypot(*(xy - p).T) <= radius)]
+            for i, s, p in zip(ids, seq, xy, strict=True)}
 
 
 def missing_counts(model: pycolmap.Reconstruction, model_dir: Path, scene: TopDownScene,
-                   radius_steps: float = 3.0, window: int = 3) -> dict[int, MissingCount]:
+                   radius_steps: float = 3.0, window: int = 3,
+                   observed: dict[int, np.ndarray] | None = None) -> dict[int, MissingCount]:
     """The missing-correspondence cue per registered camera: of the 3D points seen by cameras
     from elsewhere in the capture placed within radius_steps typical steps of it, those inside
-    its view and depth, how many it observes itself."""
+    its view and depth, how many it observes itself (observed: observed_points, if read)."""
     poses = model_poses(model)
-    observed = observed_points(model_dir, poses)
+    observed = observed_points(model_dir, poses) if observed is None else observed
     ids, xyz = model_files.read_points(model_dir)
     radius = radius_steps * typical_step(scene)
+    near = _near_others(scene, radius, window)
     out = {}
     for camera in scene.cameras:
         if not camera.registered or camera.image_id not in poses:
             continue
-        others = _near_others(scene, camera.image_id, radius, window)
+        others = near[camera.image_id].tolist()
         candidates = np.setdiff1d(np.unique(np.concatenate(
             [observed[o] for o in others if o in observed] or [np.empty(0, np.int64)])), [])
         if not len(candidates):
@@ -144,4 +149,4 @@ def gather(scene: TopDownScene, pairs: dict[PairKey, int], model: pycolmap.Recon
         return TriageInput(scene, pairs)
     observed = observed_points(model_dir, model_poses(model))
     return TriageInput(scene, pairs, shared_point_counts(observed, pairs),
-                       missing_counts(model, model_dir, scene))
+                       missing_counts(model, model_dir, scene, observed=observed))

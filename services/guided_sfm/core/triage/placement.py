@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from guided_sfm.core.triage import poses2d, symmetry
+from guided_sfm.core.triage import other_models, poses2d, symmetry
 from guided_sfm.core.triage.pieces import LOOSE, PLACED, Piece
 from guided_sfm.core.triage.signals import BREAK_STEPS, turn_deg
 
@@ -106,8 +106,9 @@ def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
         poses[i] = _reverse(placed)
         by_symmetry[i] = not trusted[i] and walk.by_symmetry(i)
         walk.placed(i)
-    _between_trusted(pieces, poses, [t or s for t, s in zip(trusted, by_symmetry, strict=True)],
-                     step)
+    settled = [t or s for t, s in zip(trusted, by_symmetry, strict=True)]
+    _between_trusted(pieces, poses, settled, step)
+    other_models.place_other_models(pieces, poses, settled, step)
     # two-view anchors are seen from the anchor camera's model pose: only trusted pieces give
     # them, and a piece the symmetry moved keeps that move
     _to_anchors(pieces, poses, trusted, anchors, step, by_symmetry)

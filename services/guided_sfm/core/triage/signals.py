@@ -106,6 +106,17 @@ def conflict_pairs(image_id: int, pairs: dict[PairKey, int], shared_points: dict
             and is_conflict(n, shared_points[key], share)]
 
 
+def conflicts_by_image(pairs: dict[PairKey, int], shared_points: dict[PairKey, int],
+                       share: float = 1.0) -> dict[int, list[tuple[PairKey, int, int]]]:
+    """conflict_pairs of every image at once (one pass over the pairs)."""
+    out: dict[int, list[tuple[PairKey, int, int]]] = {}
+    for key, n in pairs.items():
+        if key in shared_points and is_conflict(n, shared_points[key], share):
+            for image_id in key:
+                out.setdefault(image_id, []).append((key, n, shared_points[key]))
+    return out
+
+
 def missing_share(count: MissingCount | None) -> float | None:
     """Share of the points expected in view that the camera did not match; None when too few
     points were expected to judge."""

@@ -67,7 +67,8 @@ def triage(data: TriageInput) -> Triage:
         return Triage([], [])
     moved = [i for i, piece in enumerate(pieces) if not placement.trusted[i]]
     share = signals.typical_share(cameras, data.pairs, data.shared_points)
-    suspects = [_judge(c, pieces, placement, i, data, share)
+    conflicts = signals.conflicts_by_image(data.pairs, data.shared_points, share)
+    suspects = [_judge(c, pieces, placement, i, data, conflicts)
                 for i, piece in enumerate(pieces) if piece.kind == PLACED for c in piece.cameras]
     suspects.sort(key=lambda s: (-s.score, s.image_id))
     scores = {s.image_id: s.score for s in suspects}
@@ -90,8 +91,8 @@ def _capture_order(data: TriageInput) -> list:
 
 def _run(piece: Piece, poses: np.ndarray, anchor: Piece, pairs: dict,
          by_symmetry: bool = False) -> Run:
-    if piece.kind != PLACED and not _linked(piece, pairs):
-        # nothing in the matches says where it belongs: the user places it (a group move)
+    if piece.kind == LOOSE and not _linked(piece, pairs):
+        # no pair at all: a re-map cannot register it wherever it is put
         return Run(piece.image_ids, _run_reason(piece, anchor) + _UNLINKED, None)
     proposal = [CameraEdit(c.image_id, float(p[0]), float(p[1]),
                            float((np.degrees(p[2]) + 180.0) % 360.0 - 180.0))
@@ -110,7 +111,8 @@ def _linked(piece: Piece, pairs: dict) -> bool:
 
 def _run_reason(piece: Piece, anchor: Piece, by_symmetry: bool = False) -> str:
     if piece.kind == GROUP:
-        return f"{piece.names}: model {piece.cameras[0].model}, apart from the largest"
+        return (f"{piece.names}: model {piece.cameras[0].model}, apart from the largest; moved as "
+                "one piece to continue the capture from its neighbours across the gap")
     if piece.kind == LOOSE:
         return f"{piece.names}: in no model"
     how = ("moved by the symmetry their look-alike matches with the placed cameras imply"
@@ -137,11 +139,12 @@ def _boundary_reasons(piece: Piece) -> tuple[list[str], float, bool]:
     return reasons, longest, conflict
 
 
-def _camera_reasons(camera, data: TriageInput, share: float) -> tuple[list[str], bool, bool]:
-    """(reasons, has conflicting pairs, misses what others see) of one camera; share: the
-    capture's typical share of inliers held as 3D points."""
+def _camera_reasons(camera, data: TriageInput,
+                    conflicts_of: dict[int, list]) -> tuple[list[str], bool, bool]:
+    """(reasons, has conflicting pairs, misses what others see) of one camera; conflicts_of:
+    signals.conflicts_by_image against the capture's typical share."""
     reasons = []
-    conflicts = signals.conflict_pairs(camera.image_id, data.pairs, data.shared_points, share)
+    conflicts = conflicts_of.get(camera.image_id, [])
     if conflicts:
         worst = max(conflicts, key=lambda c: c[1])
         other = data.scene.camera(worst[0][0] if worst[0][1] == camera.image_id else worst[0][1])
@@ -157,9 +160,9 @@ def _camera_reasons(camera, data: TriageInput, share: float) -> tuple[list[str],
 
 
 def _judge(camera, pieces: list[Piece], placement: Placement, index: int,
-           data: TriageInput, share: float) -> Suspect:
+           data: TriageInput, conflicts_of: dict[int, list]) -> Suspect:
     piece, anchor = pieces[index], pieces[placement.anchor]
-    own, has_conflicts, missing = _camera_reasons(camera, data, share)
+    own, has_conflicts, missing = _camera_reasons(camera, data, conflicts_of)
     if placement.trusted[index]:
         at_break = camera in (piece.cameras[0], piece.cameras[-1]) and (
             piece.break_before or piece.break_after)
