@@ -200,8 +200,10 @@ def test_a_run_that_jumped_for_real_follows_its_capture_neighbours_hop():
     (run,) = triage(data).runs
     assert run.image_ids == [8, 9, 10, 11, 12]
     # continuing the walk puts it far off; the neighbours' own geometry across the jump does not
-    assert max(np.hypot(e.x - t[0], e.y - t[1]) for e, t in zip(run.proposal, truth[7:])) > 2.0
+    off = [np.hypot(e.x - t[0], e.y - t[1]) for e, t in zip(run.proposal, truth[7:], strict=True)]
+    assert max(off) > 2.0
     (run,) = triage(dataclasses.replace(data, hops=_hop(truth, 6, 7))).runs
+    assert "capture neighbour across the break" in run.reason
     for edit, true in zip(run.proposal, truth[7:], strict=True):
         assert np.hypot(edit.x - true[0], edit.y - true[1]) < 0.1
         assert signals.turn_deg(edit.yaw_deg, true[2]) < 1

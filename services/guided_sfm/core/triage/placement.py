@@ -28,6 +28,7 @@ class Placement:
     trusted: list[bool]
     anchor: int
     by_symmetry: list[bool] = field(default_factory=list)
+    by_hop: list[bool] = field(default_factory=list)  # follows its capture neighbour's hop
 
 
 def anchor_of(pieces: list[Piece]) -> int | None:
@@ -116,7 +117,7 @@ def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
     # them, and a piece the symmetry or a hop moved keeps that move
     _to_anchors(pieces, poses, trusted, anchors, step,
                 [s or h for s, h in zip(by_symmetry, by_hop, strict=True)])
-    return Placement(poses, trusted, anchor, by_symmetry)
+    return Placement(poses, trusted, anchor, by_symmetry, by_hop)
 
 
 # A point pair agrees with a motion when it carries the run's point within this many typical
