@@ -219,11 +219,45 @@ def test_a_run_that_jumped_for_real_goes_where_its_look_alike_matches_put_it():
             own[::8] = held[::8] - [0.0, 5.0]  # look-alikes: the twin, 5 m aside
             split[pair_key(trusted, run_camera)] = (held, own)
     data = dataclasses.replace(capture(truth, placed), split_points=split)
+    look_alike_hop = {(7, 8): np.array([0.5, -4.0, 1.0])}  # a hop never overrides the symmetry
+    for hops in ({}, look_alike_hop):
+        (run,) = triage(dataclasses.replace(data, hops=hops)).runs
+        assert run.image_ids == [8, 9, 10, 11, 12] and "symmetry" in run.reason
+        for edit, true in zip(run.proposal, truth[7:], strict=True):
+            assert np.hypot(edit.x - true[0], edit.y - true[1]) < 0.3
+            assert signals.turn_deg(edit.yaw_deg, true[2]) < 5
+
+
+def _jump_capture():
+    """A walk of 12 whose last 5 cameras jumped for real, 6 m across and turned round (the far
+    side of the structure); the model folded them back beside the walk, turned 120 deg."""
+    walk = straight(12)
+    truth = walk[:7] + [(x - 3.0, y + 6.0, yaw + 180.0) for x, y, yaw in walk[7:]]
+    fold = np.array([20.0, -3.0, np.radians(120.0)])  # the model's rigid fold of the run
+    run = poses2d.apply(fold, np.array([poses2d.pose(*p) for p in truth[7:]]))
+    placed = walk[:7] + [(x, y, np.degrees(yaw)) for x, y, yaw in run]
+    return truth, placed
+
+
+def _hop(truth, start, to):
+    """The true 2D pose of camera `to` seen from camera `start` (0-based), keyed by image ids."""
+    pose = [poses2d.pose(*p) for p in truth]
+    return {(start + 1, to + 1): poses2d.between(pose[start], pose[to])}
+
+
+def test_a_run_that_jumped_for_real_follows_its_capture_neighbours_hop():
+    truth, placed = _jump_capture()
+    data = capture(truth, placed)
     (run,) = triage(data).runs
-    assert run.image_ids == [8, 9, 10, 11, 12] and "symmetry" in run.reason
+    assert run.image_ids == [8, 9, 10, 11, 12]
+    # continuing the walk puts it far off; the neighbours' own geometry across the jump does not
+    off = [np.hypot(e.x - t[0], e.y - t[1]) for e, t in zip(run.proposal, truth[7:], strict=True)]
+    assert max(off) > 2.0
+    (run,) = triage(dataclasses.replace(data, hops=_hop(truth, 6, 7))).runs
+    assert "capture neighbour across the break" in run.reason
     for edit, true in zip(run.proposal, truth[7:], strict=True):
-        assert np.hypot(edit.x - true[0], edit.y - true[1]) < 0.3
-        assert signals.turn_deg(edit.yaw_deg, true[2]) < 5
+        assert np.hypot(edit.x - true[0], edit.y - true[1]) < 0.1
+        assert signals.turn_deg(edit.yaw_deg, true[2]) < 1
 
 
 def test_a_model_between_two_trusted_stretches_is_fitted_to_the_walks_from_both():

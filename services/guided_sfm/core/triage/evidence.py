@@ -41,6 +41,9 @@ class TriageInput:
     # per pair: ground positions (N, 2) of the 3D points its matches join that the model holds
     # as two different points, the first image's then the second's (symmetry.py)
     split_points: dict[PairKey, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # (start, to) -> where a capture neighbour's matches put `to` in start's ground frame, as a
+    # 2D pose (two_view.hops_of), for the neighbours across each break
+    hops: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
 
 
 # A pair's split points are read when at least this many of its inliers are not shared points.

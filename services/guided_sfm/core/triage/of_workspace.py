@@ -7,6 +7,7 @@ import dataclasses
 from guided_sfm.core.colmap_model import model_poses
 from guided_sfm.core.triage import evidence, signals, two_view
 from guided_sfm.core.triage.suspects import Triage, triage
+from guided_sfm.core.types import pair_key
 from guided_sfm.core.workspace import Workspace
 
 
@@ -24,4 +25,8 @@ def triage_workspace(workspace: Workspace) -> Triage:
     anchors = two_view.anchors_of(workspace.require(), models[0], scene.frame, conflicts)
     split = evidence.split_points(workspace.require(), workspace.model_dir(0), scene.frame,
                                   model_poses(models[0]), data.pairs, data.shared_points)
-    return triage(dataclasses.replace(data, anchors=anchors, split_points=split))
+    broken = [pair_key(s.before.image_id, s.after.image_id)
+              for s in signals.steps_between(cameras, data.pairs, data.shared_points) if s.breaks]
+    hops = two_view.hops_of(workspace.require(), models[0], workspace.model_dir(0), scene.frame,
+                            broken)
+    return triage(dataclasses.replace(data, anchors=anchors, split_points=split, hops=hops))

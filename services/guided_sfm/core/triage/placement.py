@@ -28,6 +28,7 @@ class Placement:
     trusted: list[bool]
     anchor: int
     by_symmetry: list[bool] = field(default_factory=list)
+    by_hop: list[bool] = field(default_factory=list)  # follows its capture neighbour's hop
 
 
 def anchor_of(pieces: list[Piece]) -> int | None:
@@ -85,10 +86,12 @@ def _flipped(piece: Piece) -> Piece:
 
 
 def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
-                 split_points: dict | None = None) -> Placement | None:
+                 split_points: dict | None = None, hops: dict | None = None) -> Placement | None:
     """Where every piece probably belongs, walking out from the anchor both ways; a moved piece
     whose look-alike matches with the pieces placed before it imply a clear symmetry is moved by
-    it; one whose pairs to trusted cameras say where it is (two_view.Anchor) is fitted to them."""
+    it; one that follows a capture neighbour's hop across its break (two_view.hops_of) is put
+    there; one whose pairs to trusted cameras say where it is (two_view.Anchor) is fitted to
+    them."""
     anchor = anchor_of(pieces)
     if anchor is None:
         return None
@@ -106,13 +109,16 @@ def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
         poses[i] = _reverse(placed)
         by_symmetry[i] = not trusted[i] and walk.by_symmetry(i)
         walk.placed(i)
-    settled = [t or s for t, s in zip(trusted, by_symmetry, strict=True)]
-    _between_trusted(pieces, poses, settled, step)
-    other_models.place_other_models(pieces, poses, settled, step)
+    sure = [t or s for t, s in zip(trusted, by_symmetry, strict=True)]
+    between = _between_trusted(pieces, poses, sure, step)
+    by_hop = _follow_hops(pieces, poses, anchor, [s or b for s, b in zip(sure, between, strict=True)],
+                          hops or {}, step)
+    other_models.place_other_models(pieces, poses, sure, step)
     # two-view anchors are seen from the anchor camera's model pose: only trusted pieces give
-    # them, and a piece the symmetry moved keeps that move
-    _to_anchors(pieces, poses, trusted, anchors, step, by_symmetry)
-    return Placement(poses, trusted, anchor, by_symmetry)
+    # them, and a piece the symmetry or a hop moved keeps that move
+    _to_anchors(pieces, poses, trusted, anchors, step,
+                [s or h for s, h in zip(by_symmetry, by_hop, strict=True)])
+    return Placement(poses, trusted, anchor, by_symmetry, by_hop)
 
 
 # A point pair agrees with a motion when it carries the run's point within this many typical
@@ -166,17 +172,43 @@ class _Walk:
         return np.vstack(moving), np.vstack(fixed)
 
 
-def _between_trusted(pieces: list[Piece], poses: list, trusted: list[bool], step: float) -> None:
-    """Refit each moved piece that lies between two trusted ones to continue both."""
+def _between_trusted(pieces: list[Piece], poses: list, trusted: list[bool],
+                     step: float) -> list[bool]:
+    """Refit each moved piece that lies between two trusted ones to continue both; which were."""
+    refitted = [False] * len(pieces)
     for i in range(1, len(pieces) - 1):
         piece = pieces[i]
         if trusted[i] or piece.kind == LOOSE or not (trusted[i - 1] and trusted[i + 1]):
             continue
+        refitted[i] = True
         from_before = _ahead(poses[i - 1], step)
         from_after = _ahead(_reverse(poses[i + 1]), step)  # a motion walked backwards
         source = np.array([piece.poses[0], piece.poses[-1]])
         motion = poses2d.fit_rigid(source, np.array([from_before, from_after]), 2 * step)
         poses[i] = poses2d.apply(motion, piece.poses)
+    return refitted
+
+
+def _follow_hops(pieces: list[Piece], poses: list, anchor: int, settled: list[bool], hops: dict,
+                 step: float) -> list[bool]:
+    """Walking out from the anchor, put each moved piece where the matches of the capture
+    neighbours across its break put it, seen from the neighbour as placed (two_view.hops_of):
+    a capture can jump where no trajectory continues (twins walks from one box round to the far
+    side of the other). Pieces already settled (trusted, moved by a symmetry, or fitted between
+    two trusted ones) stay. Which pieces were moved."""
+    moved = [False] * len(pieces)
+    walk = [(i, i - 1, -1, 0) for i in range(anchor + 1, len(pieces))] + \
+           [(i, i + 1, 0, -1) for i in range(anchor - 1, -1, -1)]
+    for i, neighbour, start, end in walk:
+        if settled[i] or pieces[i].kind != PLACED:
+            continue
+        hop = hops.get((pieces[neighbour].cameras[start].image_id, pieces[i].cameras[end].image_id))
+        if hop is None or poses[neighbour] is None:
+            continue
+        target = poses2d.compose(poses[neighbour][start], hop)
+        motion = poses2d.fit_rigid(pieces[i].poses[end:][:1], target[None], 2 * step)
+        poses[i], moved[i] = poses2d.apply(motion, pieces[i].poses), True
+    return moved
 
 
 # A piece is fitted to its two-view anchors when at least this many agree, from directions this

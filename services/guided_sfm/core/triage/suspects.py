@@ -62,7 +62,7 @@ def triage(data: TriageInput) -> Triage:
     group_poses = {c.image_id: (c.group_pose["x"], c.group_pose["y"], c.group_pose["yaw_deg"])
                    for c in cameras if c.group_pose is not None}
     pieces = cut_pieces(cameras, steps, group_poses)
-    placement = place_pieces(pieces, step, data.anchors, data.split_points)
+    placement = place_pieces(pieces, step, data.anchors, data.split_points, data.hops)
     if placement is None:
         return Triage([], [])
     moved = [i for i, piece in enumerate(pieces) if not placement.trusted[i]]
@@ -73,7 +73,7 @@ def triage(data: TriageInput) -> Triage:
     suspects.sort(key=lambda s: (-s.score, s.image_id))
     scores = {s.image_id: s.score for s in suspects}
     runs = [_run(pieces[i], placement.poses[i], pieces[placement.anchor], data.pairs,
-                 placement.by_symmetry[i]) for i in moved]
+                 _how(placement, i)) for i in moved]
     runs.sort(key=lambda r: (-max(scores.get(i, 1.0) for i in r.image_ids), r.image_ids[0]))
     return Triage(suspects, runs)
 
@@ -89,15 +89,27 @@ def _capture_order(data: TriageInput) -> list:
     return cameras[start:] + cameras[:start]
 
 
+_SYMMETRY = "moved by the symmetry their look-alike matches with the placed cameras imply"
+_HOP = ("moved where the matches of their capture neighbour across the break put them "
+        "(the capture jumps there)")
+_CONTINUE = "moved to continue the trajectory of their neighbours"
+
+
+def _how(placement: Placement, index: int) -> str:
+    if placement.by_symmetry[index]:
+        return _SYMMETRY
+    return _HOP if placement.by_hop and placement.by_hop[index] else _CONTINUE
+
+
 def _run(piece: Piece, poses: np.ndarray, anchor: Piece, pairs: dict,
-         by_symmetry: bool = False) -> Run:
+         how: str = _CONTINUE) -> Run:
     if piece.kind == LOOSE and not _linked(piece, pairs):
         # no pair at all: a re-map cannot register it wherever it is put
         return Run(piece.image_ids, _run_reason(piece, anchor) + _UNLINKED, None)
     proposal = [CameraEdit(c.image_id, float(p[0]), float(p[1]),
                            float((np.degrees(p[2]) + 180.0) % 360.0 - 180.0))
                 for c, p in zip(piece.cameras, poses, strict=True)]
-    return Run(piece.image_ids, _run_reason(piece, anchor, by_symmetry), proposal)
+    return Run(piece.image_ids, _run_reason(piece, anchor, how), proposal)
 
 
 _UNLINKED = "; no verified pair links it to the other cameras, so nothing is proposed"
@@ -109,14 +121,12 @@ def _linked(piece: Piece, pairs: dict) -> bool:
     return any((a in own) != (b in own) for a, b in pairs)
 
 
-def _run_reason(piece: Piece, anchor: Piece, by_symmetry: bool = False) -> str:
+def _run_reason(piece: Piece, anchor: Piece, how: str = _CONTINUE) -> str:
     if piece.kind == GROUP:
         return (f"{piece.names}: model {piece.cameras[0].model}, apart from the largest; moved as "
                 "one piece to continue the capture from its neighbours across the gap")
     if piece.kind == LOOSE:
         return f"{piece.names}: in no model"
-    how = ("moved by the symmetry their look-alike matches with the placed cameras imply"
-           if by_symmetry else "moved to continue the trajectory of their neighbours")
     return (f"{piece.names}: {len(piece.cameras)} cameras placed continuously but apart from "
             f"the capture's largest continuous stretch ({anchor.names}); {how} with their own "
             "relative poses")
