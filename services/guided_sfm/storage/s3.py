@@ -126,6 +126,7 @@ class S3Store(Store):
         for page in self._pages(prefix + "/", Delimiter="/"):
             found.update(item["Key"][start:] for item in page.get("Contents", []))
             found.update(item["Prefix"][start:].rstrip("/") for item in page.get("CommonPrefixes", []))
+        found.discard("")  # a folder marker (the object prefix + "/") is the folder itself
         return sorted(found)
 
     @_reaching
