@@ -91,15 +91,22 @@ def _strongest(moving: np.ndarray, fixed: np.ndarray, tolerance: float,
     return motion, refitted
 
 
+def thinned(moving: np.ndarray, fixed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (N, 2) pairs evenly thinned to MAX_PAIRS: the pairs symmetry_of counts its support
+    among (compare another motion's count on these too)."""
+    moving, fixed = np.asarray(moving, float).reshape(-1, 2), np.asarray(fixed, float).reshape(-1, 2)
+    if len(moving) > MAX_PAIRS:
+        rows = np.linspace(0, len(moving) - 1, MAX_PAIRS).astype(int)
+        moving, fixed = moving[rows], fixed[rows]
+    return moving, fixed
+
+
 def symmetry_of(moving: np.ndarray, fixed: np.ndarray, tolerance: float,
                 seed: int = 0) -> Symmetry | None:
     """The rigid ground-plane motion T with T(moving[k]) ~ fixed[k] for the most pairs k, when
     at least MIN_SUPPORT pairs agree within tolerance and DISTINCT times as many as on the best
     motion of the pairs left over; else None. moving, fixed: (N, 2)."""
-    moving, fixed = np.asarray(moving, float).reshape(-1, 2), np.asarray(fixed, float).reshape(-1, 2)
-    if len(moving) > MAX_PAIRS:
-        rows = np.linspace(0, len(moving) - 1, MAX_PAIRS).astype(int)
-        moving, fixed = moving[rows], fixed[rows]
+    moving, fixed = thinned(moving, fixed)
     if len(moving) < MIN_SUPPORT:
         return None
     rng = np.random.default_rng(seed)
