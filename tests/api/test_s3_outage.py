@@ -4,6 +4,7 @@ store is back the API answers again. A TCP gate in front of moto's server takes 
 while the server keeps its objects."""
 
 import tempfile
+import time
 
 import pytest
 
@@ -106,5 +107,27 @@ def test_a_delete_committed_before_the_store_went_away_is_204_and_the_files_are_
             if what == "image":
                 assert client.get(f"{api}/images", headers=owner).json() == []
             assert any(key.endswith("/a.jpg") for key in moto_server.objects(bucket))  # left for later
+    finally:
+        gate.close()
+
+
+def test_an_endpoint_that_answers_nothing_is_503_within_its_read_timeout(tmp_path, database_url, sessions,
+                                                                         s3_env, moto_server, monkeypatch):
+    """Connected, then silent (a hung server or proxy): each try ends at the read timeout, so the
+    request ends as a 503 after the tries, not after botocore's default 60 s a try."""
+    from guided_sfm.storage import s3
+
+    monkeypatch.setattr(s3, "READ_SECONDS", 1)
+    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
+    try:
+        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
+            owner = signup(client, "owner")
+            pid = make_project(client, owner)
+            image = _upload(client, owner, pid).json()[0]
+            gate.hang()
+            start = time.monotonic()
+            answer = client.get(f"/api/v1/projects/{pid}/images/{image['id']}/file", headers=owner)
+            assert _unavailable(answer), answer.text
+            assert time.monotonic() - start < 30
     finally:
         gate.close()
