@@ -40,7 +40,7 @@ CHUNK = 1 << 20  # bytes per chunk when the API streams a file
 PAGE = 1000  # keys per listing request (S3's most)
 # a request waits this long for an endpoint that does not answer (to connect; then for each read:
 # botocore's default is 60 s), and is tried this often in all (botocore's "standard" retries back
-# off between tries): an outage costs a request seconds (a hung endpoint some 30 s), not minutes
+# off between tries): an outage costs a request seconds (a hung endpoint under a minute), not minutes
 CONNECT_SECONDS, READ_SECONDS, ATTEMPTS = 5, 10, 3
 # what boto3 raises when the store, not the key, is the problem (a missing key is caught before)
 UNAVAILABLE = (ClientError, BotoCoreError, Boto3Error)
