@@ -147,8 +147,9 @@ class Store(ABC):
         for key in keys:
             try:
                 self.remove(key)
-            except StoreUnavailable as exc:
-                log.warning("%s kept for the reconciler: %s", key, exc)
+            except StoreUnavailable as exc:  # the store is away: the rest waits for it too
+                log.warning("%s and the other files of deleted rows kept for the reconciler: %s", key, exc)
+                return
 
 
 def _project_of(version: str) -> int:
