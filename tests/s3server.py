@@ -84,7 +84,8 @@ SLOW_DOWN = (b"HTTP/1.1 503 Slow Down\r\nContent-Type: application/xml\r\nConnec
 class Gate:
     """A TCP gate in front of an S3 endpoint, so a test can take the store away while the server
     keeps its objects: `open` forwards every byte, `busy` answers each request 503 SlowDown (as S3
-    does under load), `closed` listens on nothing (connections refused, live ones cut)."""
+    does under load), `hung` reads each request and answers nothing, `closed` listens on nothing
+    (connections refused, live ones cut)."""
 
     def __init__(self, target_port: int) -> None:
         self.target, self.port = target_port, free_port()
@@ -105,6 +106,12 @@ class Gate:
     def busy(self) -> None:
         self.open()
         self.state = "busy"
+        self._cut()
+
+    def hang(self) -> None:
+        """Accept and read each request, answer nothing (an endpoint hung after the connect)."""
+        self.open()
+        self.state = "hung"
         self._cut()
 
     def close(self) -> None:
@@ -129,7 +136,7 @@ class Gate:
             except OSError:
                 return
             conn.settimeout(None)
-            handler = self._slow_down if self.state == "busy" else self._forward
+            handler = {"busy": self._slow_down, "hung": self._hold}.get(self.state, self._forward)
             threading.Thread(target=handler, args=(conn,), daemon=True).start()
 
     def _slow_down(self, conn: socket.socket) -> None:
@@ -141,6 +148,12 @@ class Gate:
                     return
                 head += chunk
             conn.sendall(SLOW_DOWN)
+
+    def _hold(self, conn: socket.socket) -> None:
+        self.live.add(conn)
+        with contextlib.suppress(OSError):
+            while conn.recv(65536):
+                pass
 
     def _forward(self, conn: socket.socket) -> None:
         try:

@@ -4,6 +4,7 @@ store is back the API answers again. A TCP gate in front of moto's server takes 
 while the server keeps its objects."""
 
 import tempfile
+import time
 
 import pytest
 
@@ -80,5 +81,53 @@ def test_a_store_that_goes_away_is_503_and_nothing_changes(fault, tmp_path, data
             gate.open()
             assert client.get(f"{api}/images/{image['id']}/thumbnail", headers=owner).status_code == 200
             assert _upload(client, owner, pid, "b.jpg").status_code == 201
+    finally:
+        gate.close()
+
+
+@pytest.mark.parametrize("what", ["project", "image"])
+def test_a_delete_committed_before_the_store_went_away_is_204_and_the_files_are_collected_later(
+        what, tmp_path, database_url, sessions, s3_env, moto_server):
+    """The rows go first (one commit), then the files: a store away at that moment cannot undo the
+    commit, so the answer is the delete's 204 (a 503 'nothing was stored, retry' would be a lie:
+    the retry is a 404), and the files are the reconciler's orphans."""
+    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
+    try:
+        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
+            owner = signup(client, "owner")
+            pid = make_project(client, owner)
+            image = _upload(client, owner, pid).json()[0]
+            gate.close()
+            api = f"/api/v1/projects/{pid}"
+            path = api if what == "project" else f"{api}/images/{image['id']}"
+            answer = client.delete(path, headers=owner)
+            assert answer.status_code == 204, answer.text
+            assert client.get(path if what == "project" else f"{api}/images", headers=owner).status_code \
+                == (404 if what == "project" else 200)
+            if what == "image":
+                assert client.get(f"{api}/images", headers=owner).json() == []
+            assert any(key.endswith("/a.jpg") for key in moto_server.objects(bucket))  # left for later
+    finally:
+        gate.close()
+
+
+def test_an_endpoint_that_answers_nothing_is_503_within_its_read_timeout(tmp_path, database_url, sessions,
+                                                                         s3_env, moto_server, monkeypatch):
+    """Connected, then silent (a hung server or proxy): each try ends at the read timeout, so the
+    request ends as a 503 after the tries, not after botocore's default 60 s a try."""
+    from guided_sfm.storage import s3
+
+    monkeypatch.setattr(s3, "READ_SECONDS", 1)
+    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
+    try:
+        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
+            owner = signup(client, "owner")
+            pid = make_project(client, owner)
+            image = _upload(client, owner, pid).json()[0]
+            gate.hang()
+            start = time.monotonic()
+            answer = client.get(f"/api/v1/projects/{pid}/images/{image['id']}/file", headers=owner)
+            assert _unavailable(answer), answer.text
+            assert time.monotonic() - start < 30
     finally:
         gate.close()

@@ -272,3 +272,28 @@ def test_a_model_between_two_trusted_stretches_is_fitted_to_the_walks_from_both(
     poses = [p.poses for p in pieces]
     other_models.place_other_models(pieces, poses, [True, False, False], 1.0)  # one side only
     assert poses[1] == pytest.approx(np.array(ring[10:20]))
+
+
+@pytest.mark.parametrize("per_pair", [80, 600])  # 2,800 split points, and 21,000 (thinned to 3,000)
+def test_the_symmetry_beats_the_continuation_by_shares_not_by_how_many_points_there_are(per_pair):
+    """Half of the split points agree with the true move, a tenth with the continuation: the
+    symmetry wins however many points there are (it was counted among the thinned ones, the
+    continuation among all of them, so many points made the continuation win)."""
+    walk = straight(12)
+    truth = walk[:7] + [(x, y + 5.0, yaw) for x, y, yaw in walk[7:]]
+    placed = walk[:7] + [(x - 7.0, y + 0.1, yaw) for x, y, yaw in walk[7:]]
+    move = np.array([7.0, 4.9, 0.0])
+    (plain,) = triage(capture(truth, placed)).runs
+    continued = poses2d.fit_rigid(np.array([poses2d.pose(*p) for p in placed[7:]]),
+                                  np.array([poses2d.pose(e.x, e.y, e.yaw_deg) for e in plain.proposal]), 2.0)
+    rng, split = np.random.default_rng(5), {}
+    for trusted in range(1, 8):
+        for run_camera in range(8, 13):
+            held = rng.uniform(-3.0, 3.0, (per_pair, 2)) + [3.0, 6.0]
+            own = rng.uniform(-3.0, 3.0, (per_pair, 2)) + [-4.0, 1.0]  # agreeing with nothing
+            half, tenth = per_pair // 2, per_pair * 6 // 10
+            own[:half] = symmetry.apply(poses2d.inverse(move), held[:half])
+            own[half:tenth] = symmetry.apply(poses2d.inverse(continued), held[half:tenth])
+            split[pair_key(trusted, run_camera)] = (held, own)
+    (run,) = triage(dataclasses.replace(capture(truth, placed), split_points=split)).runs
+    assert "symmetry" in run.reason

@@ -96,6 +96,8 @@ def test_s3_children_list_one_level_page_by_page(moto_server, monkeypatch, temp_
         store.put(image_key(PID, name), write(tmp_path / name, b"x"))
     publish(store)
     store.put(image_key(PID + 1, "a.jpg"), write(tmp_path / "other", b"x"))
+    # a folder marker (an empty object named like the folder, as consoles make) names no child
+    store.client.put_object(Bucket=store.bucket, Key=store._key(f"projects/{PID + 1}/images") + "/", Body=b"")
     listed = []
     store.client.meta.events.register("after-call.s3.ListObjectsV2", lambda parsed, **_: listed.append(
         len(parsed.get("Contents", [])) + len(parsed.get("CommonPrefixes", []))))
@@ -105,6 +107,7 @@ def test_s3_children_list_one_level_page_by_page(moto_server, monkeypatch, temp_
     listed.clear()
     assert store.children(f"projects/{PID}/images") == sorted(names)
     assert sum(listed) == len(names) and len(listed) == 3  # three pages of two
+    assert store.children(f"projects/{PID + 1}/images") == ["a.jpg"]
 
 
 def test_a_published_version_reads_back_as_it_was_staged(any_store):

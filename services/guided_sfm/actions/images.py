@@ -88,8 +88,7 @@ def delete(session: Session, store: Store, image: Image) -> None:
     session.flush()
     renumber(session, project_id)
     session.commit()
-    for key in keys:
-        store.remove(key)
+    store.remove_committed(keys)
 
 
 def _image_names(store: Store, version: str) -> set[str]:

@@ -7,7 +7,7 @@ from sqlalchemy.orm import Session
 from guided_sfm.db import queries
 from guided_sfm.db.models import Membership, Project
 from guided_sfm.errors import Conflict
-from guided_sfm.storage import Store
+from guided_sfm.storage import Store, project_prefix
 
 
 def add(session: Session, user_id: int, name: str, description: str = "") -> Project:
@@ -37,4 +37,4 @@ def delete(session: Session, store: Store, project: Project) -> None:
     session.flush()
     session.delete(project)
     session.commit()
-    store.delete_project(project_id)
+    store.remove_committed([project_prefix(project_id)])

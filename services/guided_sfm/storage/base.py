@@ -11,6 +11,7 @@ or not at all: a rename in the data dir, a manifest written last in S3.
 
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 from abc import ABC, abstractmethod
@@ -18,6 +19,8 @@ from collections.abc import Iterable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+
+log = logging.getLogger(__name__)
 
 
 def project_prefix(project_id: int) -> str:
@@ -137,6 +140,16 @@ class Store(ABC):
 
     def delete_project(self, project_id: int) -> None:
         self.remove(project_prefix(project_id))
+
+    def remove_committed(self, keys: Iterable[str]) -> None:
+        """Remove the files of rows whose deletion is already committed: a store away now cannot
+        undo the commit, so what it keeps is left to the reconciler (orphans once past the grace)."""
+        for key in keys:
+            try:
+                self.remove(key)
+            except StoreUnavailable as exc:  # the store is away: the rest waits for it too
+                log.warning("%s and the other files of deleted rows kept for the reconciler: %s", key, exc)
+                return
 
 
 def _project_of(version: str) -> int:

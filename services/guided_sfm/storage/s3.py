@@ -38,9 +38,10 @@ SCRATCH = "guided-sfm-scratch"  # under the temp dir; one folder per job or requ
 TRANSFERS = 8  # parallel downloads when a job fetches its inputs
 CHUNK = 1 << 20  # bytes per chunk when the API streams a file
 PAGE = 1000  # keys per listing request (S3's most)
-# a request waits this long for an endpoint that does not answer, and is tried this often in all
-# (botocore's "standard" retries back off between tries): an outage costs a request seconds, not minutes
-CONNECT_SECONDS, ATTEMPTS = 5, 3
+# a request waits this long for an endpoint that does not answer (to connect; then for each read:
+# botocore's default is 60 s), and is tried this often in all (botocore's "standard" retries back
+# off between tries): an outage costs a request seconds (a hung endpoint under a minute), not minutes
+CONNECT_SECONDS, READ_SECONDS, ATTEMPTS = 5, 10, 3
 # what boto3 raises when the store, not the key, is the problem (a missing key is caught before)
 UNAVAILABLE = (ClientError, BotoCoreError, Boto3Error)
 
@@ -73,7 +74,7 @@ class S3Store(Store):
         url = urlsplit(artifacts_url)
         endpoint = endpoint_url or None
         retries = {"max_attempts": ATTEMPTS, "mode": "standard"}
-        config = Config(connect_timeout=CONNECT_SECONDS, retries=retries,
+        config = Config(connect_timeout=CONNECT_SECONDS, read_timeout=READ_SECONDS, retries=retries,
                         s3={"addressing_style": "path"} if endpoint else None)  # path: MinIO, moto
         client = boto3.session.Session().client("s3", endpoint_url=endpoint, config=config)
         return cls(client, url.netloc, url.path)
@@ -126,6 +127,7 @@ class S3Store(Store):
         for page in self._pages(prefix + "/", Delimiter="/"):
             found.update(item["Key"][start:] for item in page.get("Contents", []))
             found.update(item["Prefix"][start:].rstrip("/") for item in page.get("CommonPrefixes", []))
+        found.discard("")  # a folder marker (the object prefix + "/") is the folder itself
         return sorted(found)
 
     @_reaching

@@ -62,7 +62,10 @@ def split_points(database: Path, model_dir: Path, frame: GroundFrame, poses: dic
     ids, xyz = model_files.read_points(model_dir)
     out = {}
     for (a, b), rows in colmap_db.inlier_matches_of(database, wanted).items():
-        point_a, point_b = observations[a][1][rows[:, 0]], observations[b][1][rows[:, 1]]
+        held_a, held_b = observations[a][1], observations[b][1]
+        # a model may hold fewer 2D points than the database has keypoints (known poses only)
+        rows = rows[(rows[:, 0] < len(held_a)) & (rows[:, 1] < len(held_b))]
+        point_a, point_b = held_a[rows[:, 0]], held_b[rows[:, 1]]
         split = ((point_a != model_files.NO_POINT) & (point_b != model_files.NO_POINT)
                  & (point_a != point_b))
         if split.any():

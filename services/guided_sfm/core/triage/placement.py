@@ -148,7 +148,7 @@ class _Walk:
         piece = self.pieces[index]
         if piece.kind != PLACED:
             return False
-        moving, fixed = self._pairs(set(piece.image_ids))
+        moving, fixed = symmetry.thinned(*self._pairs(set(piece.image_ids)))  # both counts among these
         tolerance = SYMMETRY_TOLERANCE_STEPS * self.step
         found = symmetry.symmetry_of(moving, fixed, tolerance)
         if found is None:

@@ -97,18 +97,10 @@ def steps_between(cameras: list[SceneCamera], pairs: dict[PairKey, int],
     return out
 
 
-def conflict_pairs(image_id: int, pairs: dict[PairKey, int], shared_points: dict[PairKey, int],
-                   share: float = 1.0) -> list[tuple[PairKey, int, int]]:
-    """(pair, inliers, shared points) of the camera's pairs in conflict with the model, against
-    the capture's typical share."""
-    return [(key, n, shared_points.get(key, 0)) for key, n in pairs.items()
-            if image_id in key and key in shared_points
-            and is_conflict(n, shared_points[key], share)]
-
-
 def conflicts_by_image(pairs: dict[PairKey, int], shared_points: dict[PairKey, int],
                        share: float = 1.0) -> dict[int, list[tuple[PairKey, int, int]]]:
-    """conflict_pairs of every image at once (one pass over the pairs)."""
+    """Per image: (pair, inliers, shared points) of its pairs in conflict with the model, against
+    the capture's typical share (one pass over the pairs)."""
     out: dict[int, list[tuple[PairKey, int, int]]] = {}
     for key, n in pairs.items():
         if key in shared_points and is_conflict(n, shared_points[key], share):

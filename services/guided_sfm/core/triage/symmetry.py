@@ -1,7 +1,7 @@
 """The symmetry a run's look-alike matches imply: where the model holds the two keypoints of a
-verified match as two different 3D points (one seen by a camera of the run, one by a trusted
-camera), the ground-plane motion that carries the run's points onto the trusted ones is where the
-run belongs, when one motion stands out. A scene of repeated structures admits several such
+verified match as two different 3D points (one seen by a camera of the run, one by a camera of a
+piece placed before it, trusted or moved), the ground-plane motion that carries the run's points
+onto the placed ones is where the run belongs, when one motion stands out. A scene of repeated structures admits several such
 motions (each look-alike maps onto each); only the true matches single one out."""
 
 from __future__ import annotations
@@ -92,15 +92,22 @@ def _strongest(moving: np.ndarray, fixed: np.ndarray, tolerance: float,
     return motion, refitted
 
 
+def thinned(moving: np.ndarray, fixed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (N, 2) pairs evenly thinned to MAX_PAIRS: the pairs symmetry_of counts its support
+    among (compare another motion's count on these too)."""
+    moving, fixed = np.asarray(moving, float).reshape(-1, 2), np.asarray(fixed, float).reshape(-1, 2)
+    if len(moving) > MAX_PAIRS:
+        rows = np.linspace(0, len(moving) - 1, MAX_PAIRS).astype(int)
+        moving, fixed = moving[rows], fixed[rows]
+    return moving, fixed
+
+
 def symmetry_of(moving: np.ndarray, fixed: np.ndarray, tolerance: float,
                 seed: int = 0) -> Symmetry | None:
     """The rigid ground-plane motion T with T(moving[k]) ~ fixed[k] for the most pairs k, when
     at least MIN_SUPPORT pairs agree within tolerance and DISTINCT times as many as on the best
     motion of the pairs left over; else None. moving, fixed: (N, 2)."""
-    moving, fixed = np.asarray(moving, float).reshape(-1, 2), np.asarray(fixed, float).reshape(-1, 2)
-    if len(moving) > MAX_PAIRS:
-        rows = np.linspace(0, len(moving) - 1, MAX_PAIRS).astype(int)
-        moving, fixed = moving[rows], fixed[rows]
+    moving, fixed = thinned(moving, fixed)
     if len(moving) < MIN_SUPPORT:
         return None
     rng = np.random.default_rng(seed)
