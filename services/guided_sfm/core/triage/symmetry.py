@@ -1,8 +1,9 @@
 """The symmetry a run's look-alike matches imply: where the model holds the two keypoints of a
 verified match as two different 3D points (one seen by a camera of the run, one by a camera of a
 piece placed before it, trusted or moved), the ground-plane motion that carries the run's points
-onto the placed ones is where the run belongs, when one motion stands out. A scene of repeated structures admits several such
-motions (each look-alike maps onto each); only the true matches single one out."""
+onto the placed ones is where the run belongs, when one motion stands out. A scene of repeated
+structures admits several such motions (each look-alike maps onto each); only the true matches
+single one out."""
 
 from __future__ import annotations
 

@@ -126,6 +126,8 @@ def hops_of(database: Path, model: pycolmap.Reconstruction, model_dir: Path, fra
     ids, xyz = model_files.read_points(model_dir)
     out = {}
     for (i, j), rows in colmap_db.inlier_matches_of(database, wanted).items():
+        # a model may hold fewer 2D points than the database has keypoints (known poses only)
+        rows = rows[(rows[:, 0] < len(observations[i][0])) & (rows[:, 1] < len(observations[j][0]))]
         if len(rows) < MIN_MATCHES:
             continue
         rows = rows[np.linspace(0, len(rows) - 1, min(len(rows), MAX_MATCHES)).astype(int)]
