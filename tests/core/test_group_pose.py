@@ -82,3 +82,21 @@ def test_merge_keeps_image_ids_and_tracks():
     assert set(largest.reg_image_ids()) == {i for _, i, _, _ in LARGEST + OTHER}
     assert largest.num_points3D() == count + other.num_points3D()
     assert isinstance(largest, pycolmap.Reconstruction)
+
+
+def test_merge_skips_the_images_the_largest_already_has():
+    """Sub-models of one map may share images (COLMAP's max_model_overlap): those stay as the
+    largest has them, and the other's points keep only their observations in the added images."""
+    from guided_sfm.core.join_groups import merge_into
+
+    largest, other = _model(LARGEST), _model(LARGEST[3:] + OTHER)
+    before = {i: largest.image(i).cam_from_world().translation.copy() for i in largest.reg_image_ids()}
+    assert merge_into(largest, other) == len(OTHER)
+    assert set(largest.reg_image_ids()) == {i for _, i, _, _ in LARGEST + OTHER}
+    for image_id, translation in before.items():
+        np.testing.assert_allclose(largest.image(image_id).cam_from_world().translation, translation)
+    added = {i for _, i, _, _ in OTHER}
+    for point in largest.points3D.values():
+        assert point.track.length() >= 1
+    assert all(e.image_id in added or e.image_id in before
+               for p in largest.points3D.values() for e in p.track.elements)

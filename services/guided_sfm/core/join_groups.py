@@ -67,8 +67,11 @@ def group_similarity(model: pycolmap.Reconstruction, placements: list[CameraEdit
 
 def merge_into(largest: pycolmap.Reconstruction, other: pycolmap.Reconstruction) -> int:
     """Add other's registered images (posed as in other) and its points to largest; returns the
-    number of images added. Both come from the same database, so image ids agree."""
-    added = 0
+    number of images added. Both come from the same database, so image ids agree. Images the
+    largest already has stay as they are (sub-models of one map may share some): other's points
+    keep their observations in the added images only, and are dropped when that leaves one of
+    a track that had more."""
+    added: set[int] = set()
     for image_id in sorted(other.reg_image_ids()):
         if largest.exists_image(image_id):
             continue
@@ -78,10 +81,12 @@ def merge_into(largest: pycolmap.Reconstruction, other: pycolmap.Reconstruction)
         fresh = pycolmap.Image(name=image.name, keypoints=np.array([p.xy for p in image.points2D]),
                                camera_id=image.camera_id, image_id=image_id)
         largest.add_image_with_trivial_frame(fresh, image.cam_from_world())
-        added += 1
+        added.add(image_id)
     for point in other.points3D.values():
-        largest.add_point3D(point.xyz, pycolmap.Track(point.track.elements), point.color)
-    return added
+        kept = [e for e in point.track.elements if e.image_id in added]
+        if len(kept) >= min(2, point.track.length()):
+            largest.add_point3D(point.xyz, pycolmap.Track(kept), point.color)
+    return len(added)
 
 
 def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEdit],
