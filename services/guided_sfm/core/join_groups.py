@@ -16,6 +16,9 @@ from guided_sfm.core.types import CameraEdit, GroundFrame
 
 # A sub-model is joined when the edit set places at least this share of its cameras.
 MIN_PLACED_SHARE = 0.5
+# Sub-models of a cold map join the largest by the images both registered when they share at
+# least this many (a similarity needs 3; docs/engine.md "Matching at scale").
+MIN_SHARED_IMAGES = 3
 
 
 def placed_groups(models: list[pycolmap.Reconstruction], placements: list[CameraEdit]) -> list[int]:
@@ -110,3 +113,32 @@ def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEd
         joined |= set(other.reg_image_ids())
     rest = [m for i, m in enumerate(models[1:], start=1) if i not in groups]
     return [largest, *rest], joined
+
+
+def join_overlapping(models: list[pycolmap.Reconstruction],
+                     min_shared: int = MIN_SHARED_IMAGES) -> list[pycolmap.Reconstruction]:
+    """Models (largest first) with every sub-model that shares at least min_shared registered
+    images with the largest carried into its world and merged into it; the others as they were.
+
+    COLMAP's incremental mapper starts a new model where it cannot go on (a turn seen by too
+    few views) and lets the new one re-register up to 20 images of the old (max_model_overlap);
+    its hierarchical mapper merges such models, its incremental one leaves them apart. The
+    similarity is COLMAP's own (the shared images' 3D points reprojected, RANSAC), as in its
+    hierarchical merge; a sub-model it cannot align stays apart.
+    """
+    if len(models) < 2:
+        return models
+    largest, rest = pycolmap.Reconstruction(models[0]), []
+    for model in models[1:]:
+        shared = largest.find_common_reg_image_ids(model)
+        sim = (pycolmap.align_reconstructions_via_reprojections(model, largest)
+               if len(shared) >= min_shared else None)
+        if sim is None:
+            rest.append(model)
+            continue
+        other = pycolmap.Reconstruction(model)
+        other.transform(sim)
+        merge_into(largest, other)
+    if len(rest) == len(models) - 1:
+        return models
+    return [largest, *sorted(rest, key=lambda m: -m.num_reg_images())]

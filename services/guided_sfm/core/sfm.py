@@ -15,7 +15,7 @@ from pathlib import Path
 import pycolmap
 from PIL import Image
 
-from guided_sfm.core import colmap_db, retrieval
+from guided_sfm.core import colmap_db, join_groups, retrieval
 from guided_sfm.core.errors import Cancelled, EmptyModel, InvalidInput
 from guided_sfm.core.types import Progress, no_progress
 
@@ -45,6 +45,11 @@ MATCH_CHUNKS = 10
 # 2 of 29 images in 2 of about 10 runs on 2 threads); it starts again, with another seed,
 # while its largest model holds less than this share of the images.
 COLD_START_ATTEMPTS, COLD_START_SHARE = 3, 0.5
+# Above this many images a cold incremental map's sub-models that share registered images with
+# the largest are joined into it (join_groups.join_overlapping): hall-300 split at its far turn
+# into 164 + 150 cameras sharing 20, joined 294 of 295 in one model (docs/engine.md "Matching at
+# scale"). Below it COLMAP's models are kept as they come: the small captures' figures stand.
+JOIN_SHARED_ABOVE_IMAGES = AUTO_EXHAUSTIVE_MAX_IMAGES
 WARM_GLOBAL_BA_RATIO = 2.0  # growth between global BAs when mapping from a previous model
 # See SfmOptions.placement_prior and docs/pruning-rule.md ("The placement as a pose prior").
 PLACEMENT_PRIOR_DEFAULT = False
@@ -393,6 +398,12 @@ def map_database(database: Path, image_dir: Path, sparse_dir: Path, run: RunCont
                                       num_images)
     run.check()
     ordered = sorted(models.values(), key=lambda rec: -rec.num_reg_images())
+    if (run.options.mapper == "incremental" and input_model is None
+            and num_images > JOIN_SHARED_ABOVE_IMAGES and len(ordered) > 1):
+        count = len(ordered)
+        ordered = join_groups.join_overlapping(ordered)
+        log.info("Joined %d of %d sub-models into the largest by their shared images.",
+                 count - len(ordered), count - 1)
     if not ordered:
         raise EmptyModel("mapping registered no images: too few verified matches")
     write_models(ordered, sparse_dir)
