@@ -113,8 +113,8 @@ def test_hierarchical_mapping_is_selectable_and_maps_the_tiny_sample(tiny_worksp
 
 
 @pytest.mark.parametrize(("count", "models_after"), [
-    (sfm.JOIN_SHARED_ABOVE_IMAGES, 2),      # a small capture keeps COLMAP's models as before
-    (sfm.JOIN_SHARED_ABOVE_IMAGES + 1, 1),  # a large one joins those sharing images
+    (sfm.LARGE_MAP_ABOVE_IMAGES, 2),      # a small capture keeps COLMAP's models as before
+    (sfm.LARGE_MAP_ABOVE_IMAGES + 1, 1),  # a large one joins those sharing images
 ])
 def test_a_large_cold_map_joins_sub_models_that_share_images(count, models_after, tmp_path,
                                                               monkeypatch):
@@ -127,3 +127,20 @@ def test_a_large_cold_map_joins_sub_models_that_share_images(count, models_after
     assert len(models) == models_after
     assert sorted(p.name for p in (tmp_path / "sparse").iterdir()) == [str(i) for i in range(models_after)]
     assert models[0].num_reg_images() == (len(SWAYING) + len(OTHER) if models_after == 1 else 7)
+
+
+@pytest.mark.parametrize(("count", "ratio"), [
+    (sfm.LARGE_MAP_ABOVE_IMAGES, pycolmap.IncrementalPipelineOptions().ba_global_frames_ratio),
+    (sfm.LARGE_MAP_ABOVE_IMAGES + 1, sfm.LARGE_GLOBAL_BA_RATIO),
+])
+def test_a_large_cold_map_runs_sparser_global_adjustments(count, ratio, tmp_path, monkeypatch):
+    seen = []
+
+    def mapper(database, image_dir, out, mapping, **kwargs):
+        seen.append((mapping.ba_global_frames_ratio, mapping.ba_global_points_ratio))
+        return {}
+
+    monkeypatch.setattr(pycolmap, "incremental_mapping", mapper)
+    sfm._incremental_map(tmp_path / "database.db", tmp_path, str(tmp_path), RunContext(), None,
+                         False, count)
+    assert seen and all(pair == pytest.approx((ratio, ratio)) for pair in seen)

@@ -2,7 +2,11 @@
 than the largest (a group move), that model is carried into the largest model's world by the
 similarity the placements imply and merged into it (cameras at their carried poses, its points
 with their tracks), so the re-map starts from one model. Nothing in the matches links the two
-parts (that is why COLMAP split them); the placement is the link."""
+parts (that is why COLMAP split them); the placement is the link.
+
+Sub-models that do share registered images with the largest (COLMAP re-registers up to 20 of
+them in a new model) are joined by those images instead, once, after a large cold map
+(join_overlapping)."""
 
 from __future__ import annotations
 
