@@ -92,3 +92,51 @@ def test_merge_keeps_image_ids_and_tracks():
     assert set(largest.reg_image_ids()) == {i for _, i, _, _ in LARGEST + OTHER}
     assert largest.num_points3D() == count + other.num_points3D()
     assert isinstance(largest, pycolmap.Reconstruction)
+
+
+def test_merge_skips_the_images_the_largest_already_has():
+    """Sub-models of one map may share images (COLMAP's max_model_overlap): those stay as the
+    largest has them, and the other's points keep only their observations in the added images."""
+    from guided_sfm.core.join_groups import merge_into
+
+    largest, other = _model(LARGEST), _model(LARGEST[3:] + OTHER)
+    before = {i: largest.image(i).cam_from_world().translation.copy() for i in largest.reg_image_ids()}
+    assert merge_into(largest, other) == len(OTHER)
+    assert set(largest.reg_image_ids()) == {i for _, i, _, _ in LARGEST + OTHER}
+    for image_id, translation in before.items():
+        np.testing.assert_allclose(largest.image(image_id).cam_from_world().translation, translation)
+    added = {i for _, i, _, _ in OTHER}
+    for point in largest.points3D.values():
+        assert point.track.length() >= 1
+    assert all(e.image_id in added or e.image_id in before
+               for p in largest.points3D.values() for e in p.track.elements)
+
+
+def _centers(model):
+    return {i: p.center for i, p in model_poses(model).items()}
+
+
+# A walk that sways (COLMAP's alignment samples 3 camera centres: a straight line is degenerate).
+SWAYING = [(n, i, (c[0], 0.3 * (-1) ** i, 1.5 + 0.1 * i), y) for n, i, c, y in LARGEST]
+
+
+def test_a_sub_model_sharing_images_joins_the_largest_in_its_world():
+    from guided_sfm.core.join_groups import join_overlapping
+
+    largest, other = _model(SWAYING), _model(SWAYING[2:] + OTHER)
+    tilt = geometry.rotations_about(np.array([1.0, 0.3, 0.2]), np.array([1.2]))[0]
+    other.transform(to_sim3d(Similarity(0.4, tilt, np.array([5.0, -2.0, 7.0]))))
+    joined = join_overlapping([largest, other])
+    assert len(joined) == 1
+    assert set(joined[0].reg_image_ids()) == {i for _, i, _, _ in LARGEST + OTHER}
+    truth = _centers(_model(SWAYING + OTHER))
+    for image_id, center in _centers(joined[0]).items():
+        np.testing.assert_allclose(center, truth[image_id], atol=1e-6)
+
+
+def test_sub_models_sharing_too_few_images_stay_apart():
+    from guided_sfm.core.join_groups import join_overlapping
+
+    models = [_model(SWAYING), _model(SWAYING[3:] + OTHER)]  # 2 shared images
+    assert join_overlapping(models, min_shared=3) is models
+    assert len(join_overlapping(list(split_models()))) == 2  # nothing shared

@@ -110,3 +110,37 @@ def test_hierarchical_mapping_is_selectable_and_maps_the_tiny_sample(tiny_worksp
     options = SfmOptions(mapper="hierarchical", max_num_features=1024, num_threads=2)
     workspace.map_again(RunContext(options), cold=True)
     assert calls == [2] and workspace.load_models()[0].num_reg_images() >= 10
+
+
+@pytest.mark.parametrize(("count", "models_after"), [
+    (sfm.LARGE_MAP_ABOVE_IMAGES, 2),      # a small capture keeps COLMAP's models as before
+    (sfm.LARGE_MAP_ABOVE_IMAGES + 1, 1),  # a large one joins those sharing images
+])
+def test_a_large_cold_map_joins_sub_models_that_share_images(count, models_after, tmp_path,
+                                                              monkeypatch):
+    from tests.core.test_group_pose import OTHER, SWAYING, _model
+
+    split = {0: _model(SWAYING), 1: _model(SWAYING[2:] + OTHER)}
+    monkeypatch.setattr(sfm, "_incremental_map", lambda *args: split)
+    monkeypatch.setattr(colmap_db, "image_names", lambda _: {i: f"{i}.png" for i in range(count)})
+    models = sfm.map_database(tmp_path / "database.db", tmp_path, tmp_path / "sparse")
+    assert len(models) == models_after
+    assert sorted(p.name for p in (tmp_path / "sparse").iterdir()) == [str(i) for i in range(models_after)]
+    assert models[0].num_reg_images() == (len(SWAYING) + len(OTHER) if models_after == 1 else 7)
+
+
+@pytest.mark.parametrize(("count", "ratio"), [
+    (sfm.LARGE_MAP_ABOVE_IMAGES, pycolmap.IncrementalPipelineOptions().ba_global_frames_ratio),
+    (sfm.LARGE_MAP_ABOVE_IMAGES + 1, sfm.LARGE_GLOBAL_BA_RATIO),
+])
+def test_a_large_cold_map_runs_sparser_global_adjustments(count, ratio, tmp_path, monkeypatch):
+    seen = []
+
+    def mapper(database, image_dir, out, mapping, **kwargs):
+        seen.append((mapping.ba_global_frames_ratio, mapping.ba_global_points_ratio))
+        return {}
+
+    monkeypatch.setattr(pycolmap, "incremental_mapping", mapper)
+    sfm._incremental_map(tmp_path / "database.db", tmp_path, str(tmp_path), RunContext(), None,
+                         False, count)
+    assert seen and all(pair == pytest.approx((ratio, ratio)) for pair in seen)

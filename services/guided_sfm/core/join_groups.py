@@ -2,7 +2,11 @@
 than the largest (a group move), that model is carried into the largest model's world by the
 similarity the placements imply and merged into it (cameras at their carried poses, its points
 with their tracks), so the re-map starts from one model. Nothing in the matches links the two
-parts (that is why COLMAP split them); the placement is the link."""
+parts (that is why COLMAP split them); the placement is the link.
+
+Sub-models that do share registered images with the largest (COLMAP re-registers up to 20 of
+them in a new model) are joined by those images instead, once, after a large cold map
+(join_overlapping)."""
 
 from __future__ import annotations
 
@@ -16,6 +20,9 @@ from guided_sfm.core.types import CameraEdit, GroundFrame
 
 # A sub-model is joined when the edit set places at least this share of its cameras.
 MIN_PLACED_SHARE = 0.5
+# Sub-models of a cold map join the largest by the images both registered when they share at
+# least this many (a similarity needs 3; docs/engine.md "Matching at scale").
+MIN_SHARED_IMAGES = 3
 
 
 def placed_groups(models: list[pycolmap.Reconstruction], placements: list[CameraEdit]) -> list[int]:
@@ -73,8 +80,11 @@ def group_similarity(model: pycolmap.Reconstruction, placements: list[CameraEdit
 
 def merge_into(largest: pycolmap.Reconstruction, other: pycolmap.Reconstruction) -> int:
     """Add other's registered images (posed as in other) and its points to largest; returns the
-    number of images added. Both come from the same database, so image ids agree."""
-    added = 0
+    number of images added. Both come from the same database, so image ids agree. Images the
+    largest already has stay as they are (sub-models of one map may share some): other's points
+    keep their observations in the added images only, and are dropped when that leaves one of
+    a track that had more."""
+    added: set[int] = set()
     for image_id in sorted(other.reg_image_ids()):
         if largest.exists_image(image_id):
             continue
@@ -84,10 +94,12 @@ def merge_into(largest: pycolmap.Reconstruction, other: pycolmap.Reconstruction)
         fresh = pycolmap.Image(name=image.name, keypoints=np.array([p.xy for p in image.points2D]),
                                camera_id=image.camera_id, image_id=image_id)
         largest.add_image_with_trivial_frame(fresh, image.cam_from_world())
-        added += 1
+        added.add(image_id)
     for point in other.points3D.values():
-        largest.add_point3D(point.xyz, pycolmap.Track(point.track.elements), point.color)
-    return added
+        kept = [e for e in point.track.elements if e.image_id in added]
+        if len(kept) >= min(2, point.track.length()):
+            largest.add_point3D(point.xyz, pycolmap.Track(kept), point.color)
+    return len(added)
 
 
 def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEdit],
@@ -112,3 +124,32 @@ def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEd
         joined |= set(other.reg_image_ids())
     rest = [m for i, m in enumerate(models[1:], start=1) if i not in groups]
     return [largest, *rest], joined
+
+
+def join_overlapping(models: list[pycolmap.Reconstruction],
+                     min_shared: int = MIN_SHARED_IMAGES) -> list[pycolmap.Reconstruction]:
+    """Models (largest first) with every sub-model that shares at least min_shared registered
+    images with the largest carried into its world and merged into it; the others as they were.
+
+    COLMAP's incremental mapper starts a new model where it cannot go on (a turn seen by too
+    few views) and lets the new one re-register up to 20 images of the old (max_model_overlap);
+    its hierarchical mapper merges such models, its incremental one leaves them apart. The
+    similarity is COLMAP's own (the shared images' 3D points reprojected, RANSAC), as in its
+    hierarchical merge; a sub-model it cannot align stays apart.
+    """
+    if len(models) < 2:
+        return models
+    largest, rest = pycolmap.Reconstruction(models[0]), []
+    for model in models[1:]:
+        shared = largest.find_common_reg_image_ids(model)
+        sim = (pycolmap.align_reconstructions_via_reprojections(model, largest)
+               if len(shared) >= min_shared else None)
+        if sim is None:
+            rest.append(model)
+            continue
+        other = pycolmap.Reconstruction(model)
+        other.transform(sim)
+        merge_into(largest, other)
+    if len(rest) == len(models) - 1:
+        return models
+    return [largest, *sorted(rest, key=lambda m: -m.num_reg_images())]

@@ -15,7 +15,7 @@ from pathlib import Path
 import pycolmap
 from PIL import Image
 
-from guided_sfm.core import colmap_db, retrieval
+from guided_sfm.core import colmap_db, join_groups, retrieval
 from guided_sfm.core.errors import Cancelled, EmptyModel, InvalidInput
 from guided_sfm.core.types import Progress, no_progress
 
@@ -45,6 +45,17 @@ MATCH_CHUNKS = 10
 # 2 of 29 images in 2 of about 10 runs on 2 threads); it starts again, with another seed,
 # while its largest model holds less than this share of the images.
 COLD_START_ATTEMPTS, COLD_START_SHARE = 3, 0.5
+# Above this many images a cold incremental map is "large": its global BAs are sparser
+# (LARGE_GLOBAL_BA_RATIO) and its sub-models that share registered images with the largest are
+# joined into it (join_groups.join_overlapping): hall-300 split at its far turn
+# into 164 + 150 cameras sharing 20, joined 294 of 295 in one model (docs/engine.md "Matching at
+# scale"). Below it COLMAP's models are kept as they come: the small captures' figures stand.
+LARGE_MAP_ABOVE_IMAGES = AUTO_EXHAUSTIVE_MAX_IMAGES
+# A large cold incremental map runs its global BA each time the
+# model grows by half, not COLMAP's 10% (the final global BA still runs): hall-300 mapped in
+# 451 s against 684 s side by side, 294 registered both, 143 wrong against 136 (one run each,
+# docs/engine.md "Matching at scale"). Small captures keep COLMAP's 10%.
+LARGE_GLOBAL_BA_RATIO = 1.5
 WARM_GLOBAL_BA_RATIO = 2.0  # growth between global BAs when mapping from a previous model
 # See SfmOptions.placement_prior and docs/pruning-rule.md ("The placement as a pose prior").
 PLACEMENT_PRIOR_DEFAULT = False
@@ -304,7 +315,8 @@ def _blocks_of_images(pairs: Sequence[tuple[int, int]]) -> list[list[tuple[int, 
 
 
 def _incremental_options(options: SfmOptions, image_dir: Path, attempt: int, fix_existing: bool,
-                         warm: bool, priors: bool = False) -> pycolmap.IncrementalPipelineOptions:
+                         warm: bool, priors: bool = False,
+                         large: bool = False) -> pycolmap.IncrementalPipelineOptions:
     mapping = pycolmap.IncrementalPipelineOptions()
     # COLMAP's global bundle adjustment then aligns the map to the priors (a robust similarity)
     # and adds each registered camera's position, weighted by its covariance; with none in the
@@ -321,6 +333,9 @@ def _incremental_options(options: SfmOptions, image_dir: Path, attempt: int, fix
         # murals 2.2x faster than cold (1.7x at 10%).
         mapping.ba_global_frames_ratio = WARM_GLOBAL_BA_RATIO
         mapping.ba_global_points_ratio = WARM_GLOBAL_BA_RATIO
+    elif large:
+        mapping.ba_global_frames_ratio = LARGE_GLOBAL_BA_RATIO
+        mapping.ba_global_points_ratio = LARGE_GLOBAL_BA_RATIO
     return mapping
 
 
@@ -362,7 +377,8 @@ def _incremental_map(database: Path, image_dir: Path, out: str, run: RunContext,
     priors = run.options.placement_prior and colmap_db.count_pose_priors(database) >= 3
     for attempt in range(1 if input_model else COLD_START_ATTEMPTS):
         mapping = _incremental_options(run.options, image_dir, attempt, fix_existing,
-                                       warm=input_model is not None, priors=priors)
+                                       warm=input_model is not None, priors=priors,
+                                       large=num_images > LARGE_MAP_ABOVE_IMAGES)
         with _cancellable():
             found = pycolmap.incremental_mapping(
                 database, image_dir, out, mapping, input_path=input_model or "",
@@ -393,6 +409,12 @@ def map_database(database: Path, image_dir: Path, sparse_dir: Path, run: RunCont
                                       num_images)
     run.check()
     ordered = sorted(models.values(), key=lambda rec: -rec.num_reg_images())
+    if (run.options.mapper == "incremental" and input_model is None
+            and num_images > LARGE_MAP_ABOVE_IMAGES and len(ordered) > 1):
+        count = len(ordered)
+        ordered = join_groups.join_overlapping(ordered)
+        log.info("Joined %d of %d sub-models into the largest by their shared images.",
+                 count - len(ordered), count - 1)
     if not ordered:
         raise EmptyModel("mapping registered no images: too few verified matches")
     write_models(ordered, sparse_dir)
