@@ -15,6 +15,9 @@ from guided_sfm.core.workspace import Workspace
 LUND = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "lund"
 MAX_TURN_DEG = 0.1
 MAX_SHIFT_SHARE = 0.005  # of the scene extent
+# COLMAP worked: most of the 29 registered (multi-threaded mapping registers 24-29 of them from run
+# to run on a loaded machine; 24 in one CI-like run)
+MIN_REGISTERED = 22
 
 
 def drift(before: Workspace, after: Workspace,
@@ -56,7 +59,7 @@ def nudged(base: Workspace, share: float) -> EditSet:
 def test_lund_round_that_moves_nothing_or_one_camera_does_no_harm(tmp_path):
     base = Workspace(tmp_path / "round0")
     base.reconstruct(LUND)
-    assert sizes(base)[0] >= 25, f"COLMAP itself failed on Lund: models {sizes(base)}"
+    assert sizes(base)[0] >= MIN_REGISTERED, f"COLMAP itself failed on Lund: models {sizes(base)}"
     scores = [s.score for s in triage_workspace(base).suspects]
     assert max(scores) < RAISE_SCORE, "triage raised a suspect on a capture COLMAP gets right"
     unmoved = correction_round(base, tmp_path / "same", EditSet(rule="default"))

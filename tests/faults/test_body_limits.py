@@ -32,13 +32,25 @@ def chunked_post(port: int, path: str, total_mb: int, content_type: str,
         pass  # the server answered and closed while we were still sending
     sock.setblocking(True)
     sock.settimeout(60)
-    while b"\r\n\r\n" not in answer:
+    while not _complete(answer):  # the body may arrive in a later packet than the headers
         more = sock.recv(65536)
         if not more:
             break
         answer += more
     sock.close()
     return int(answer.split(b" ", 2)[1]) if answer else 0, answer, sent
+
+
+def _complete(answer: bytes) -> bool:
+    """Whether answer holds the response's headers and all of its content-length."""
+    head, found, body = answer.partition(b"\r\n\r\n")
+    if not found:
+        return False
+    for line in head.split(b"\r\n")[1:]:
+        name, _, value = line.partition(b":")
+        if name.strip().lower() == b"content-length":
+            return len(body) >= int(value)
+    return True
 
 
 def _read_some(sock: socket.socket) -> bytes:
