@@ -105,13 +105,7 @@ class S3Store(Store):
 
     @_reaching
     def exists(self, key: str) -> bool:
-        try:
-            self.client.head_object(Bucket=self.bucket, Key=self._key(key))
-            return True
-        except ClientError as exc:
-            if _status(exc) == 404:
-                return False
-            raise
+        return self._head(key) is not None
 
     @_reaching
     def remove(self, key: str) -> None:
@@ -136,8 +130,13 @@ class S3Store(Store):
         newest = max((modified for _, modified in self._list(key + "/")), default=None)
         if newest is not None:
             return newest
+        head = self._head(key)
+        return None if head is None else head["LastModified"].timestamp()
+
+    def _head(self, key: str) -> dict | None:
+        """The object's metadata, or None where there is none."""
         try:
-            return self.client.head_object(Bucket=self.bucket, Key=self._key(key))["LastModified"].timestamp()
+            return self.client.head_object(Bucket=self.bucket, Key=self._key(key))
         except ClientError as exc:
             if _status(exc) == 404:
                 return None
