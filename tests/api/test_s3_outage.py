@@ -3,6 +3,7 @@ there): the API answers 503 naming the artifact store, never 500, and stores not
 store is back the API answers again. A TCP gate in front of moto's server takes the store away
 while the server keeps its objects."""
 
+import contextlib
 import tempfile
 import time
 
@@ -40,6 +41,20 @@ def _upload(client, headers, pid, name="a.jpg"):
     return client.post(f"/api/v1/projects/{pid}/images", files=files, headers=headers)
 
 
+@contextlib.contextmanager
+def _project_behind_gate(tmp_path, database_url, sessions, moto_server):
+    """(client, gate, bucket, owner, project id, image) on a bucket reached through a gate."""
+    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
+    try:
+        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
+            owner = signup(client, "owner")
+            pid = make_project(client, owner)
+            image = _upload(client, owner, pid).json()[0]
+            yield client, gate, bucket, owner, pid, image
+    finally:
+        gate.close()
+
+
 def test_an_endpoint_nobody_answers_is_503_and_stores_nothing(tmp_path, database_url, sessions, s3_env):
     nobody = f"http://127.0.0.1:{free_port()}"  # a port nothing listens on
     with _client(tmp_path, database_url, sessions, "s3://bucket/art", nobody) as client:
@@ -52,37 +67,31 @@ def test_an_endpoint_nobody_answers_is_503_and_stores_nothing(tmp_path, database
 @pytest.mark.parametrize("fault", ["close", "busy"])
 def test_a_store_that_goes_away_is_503_and_nothing_changes(fault, tmp_path, database_url, sessions, session,
                                                           s3_env, moto_server, tiny_reconstruction):
-    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
-    try:
-        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
-            owner = signup(client, "owner")
-            pid = make_project(client, owner)
-            image = _upload(client, owner, pid).json()[0]
-            path = open_store(client.app.state.settings).publish(pid, tiny_reconstruction)
-            version = Version(project_id=pid, kind="reconstruct", message="t", path=path, stats={})
-            session.add(version)
-            session.flush()
-            session.get(Project, pid).head_version_id = version.id
-            session.commit()
-            keys = set(moto_server.objects(bucket))
-            getattr(gate, fault)()
+    with _project_behind_gate(tmp_path, database_url, sessions, moto_server) as (client, gate, bucket,
+                                                                             owner, pid, image):
+        path = open_store(client.app.state.settings).publish(pid, tiny_reconstruction)
+        version = Version(project_id=pid, kind="reconstruct", message="t", path=path, stats={})
+        session.add(version)
+        session.flush()
+        session.get(Project, pid).head_version_id = version.id
+        session.commit()
+        keys = set(moto_server.objects(bucket))
+        getattr(gate, fault)()
 
-            api = f"/api/v1/projects/{pid}"
-            for path in (f"{api}/images/{image['id']}/thumbnail", f"{api}/images/{image['id']}/file",
-                         f"{api}/versions/{version.id}/scene", f"{api}/versions/{version.id}/pairs"):
-                answer = client.get(path, headers=owner)
-                assert _unavailable(answer), (path, answer.status_code, answer.text)
-            assert _unavailable(_upload(client, owner, pid, "b.jpg"))
-            assert _unavailable(client.post(f"{api}/versions/{version.id}/restore", headers=owner))
-            assert [i["name"] for i in client.get(f"{api}/images", headers=owner).json()] == ["a.jpg"]
-            assert [v["id"] for v in client.get(f"{api}/versions", headers=owner).json()] == [version.id]
-            assert set(moto_server.objects(bucket)) == keys  # nothing stored, nothing lost
+        api = f"/api/v1/projects/{pid}"
+        for path in (f"{api}/images/{image['id']}/thumbnail", f"{api}/images/{image['id']}/file",
+                     f"{api}/versions/{version.id}/scene", f"{api}/versions/{version.id}/pairs"):
+            answer = client.get(path, headers=owner)
+            assert _unavailable(answer), (path, answer.status_code, answer.text)
+        assert _unavailable(_upload(client, owner, pid, "b.jpg"))
+        assert _unavailable(client.post(f"{api}/versions/{version.id}/restore", headers=owner))
+        assert [i["name"] for i in client.get(f"{api}/images", headers=owner).json()] == ["a.jpg"]
+        assert [v["id"] for v in client.get(f"{api}/versions", headers=owner).json()] == [version.id]
+        assert set(moto_server.objects(bucket)) == keys  # nothing stored, nothing lost
 
-            gate.open()
-            assert client.get(f"{api}/images/{image['id']}/thumbnail", headers=owner).status_code == 200
-            assert _upload(client, owner, pid, "b.jpg").status_code == 201
-    finally:
-        gate.close()
+        gate.open()
+        assert client.get(f"{api}/images/{image['id']}/thumbnail", headers=owner).status_code == 200
+        assert _upload(client, owner, pid, "b.jpg").status_code == 201
 
 
 @pytest.mark.parametrize("what", ["project", "image"])
@@ -91,24 +100,18 @@ def test_a_delete_committed_before_the_store_went_away_is_204_and_the_files_are_
     """The rows go first (one commit), then the files: a store away at that moment cannot undo the
     commit, so the answer is the delete's 204 (a 503 'nothing was stored, retry' would be a lie:
     the retry is a 404), and the files are the reconciler's orphans."""
-    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
-    try:
-        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
-            owner = signup(client, "owner")
-            pid = make_project(client, owner)
-            image = _upload(client, owner, pid).json()[0]
-            gate.close()
-            api = f"/api/v1/projects/{pid}"
-            path = api if what == "project" else f"{api}/images/{image['id']}"
-            answer = client.delete(path, headers=owner)
-            assert answer.status_code == 204, answer.text
-            assert client.get(path if what == "project" else f"{api}/images", headers=owner).status_code \
-                == (404 if what == "project" else 200)
-            if what == "image":
-                assert client.get(f"{api}/images", headers=owner).json() == []
-            assert any(key.endswith("/a.jpg") for key in moto_server.objects(bucket))  # left for later
-    finally:
+    with _project_behind_gate(tmp_path, database_url, sessions, moto_server) as (client, gate, bucket,
+                                                                             owner, pid, image):
         gate.close()
+        api = f"/api/v1/projects/{pid}"
+        path = api if what == "project" else f"{api}/images/{image['id']}"
+        answer = client.delete(path, headers=owner)
+        assert answer.status_code == 204, answer.text
+        assert client.get(path if what == "project" else f"{api}/images", headers=owner).status_code \
+            == (404 if what == "project" else 200)
+        if what == "image":
+            assert client.get(f"{api}/images", headers=owner).json() == []
+        assert any(key.endswith("/a.jpg") for key in moto_server.objects(bucket))  # left for later
 
 
 def test_an_endpoint_that_answers_nothing_is_503_within_its_read_timeout(tmp_path, database_url, sessions,
@@ -118,16 +121,10 @@ def test_an_endpoint_that_answers_nothing_is_503_within_its_read_timeout(tmp_pat
     from guided_sfm.storage import s3
 
     monkeypatch.setattr(s3, "READ_SECONDS", 1)
-    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
-    try:
-        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
-            owner = signup(client, "owner")
-            pid = make_project(client, owner)
-            image = _upload(client, owner, pid).json()[0]
-            gate.hang()
-            start = time.monotonic()
-            answer = client.get(f"/api/v1/projects/{pid}/images/{image['id']}/file", headers=owner)
-            assert _unavailable(answer), answer.text
-            assert time.monotonic() - start < 30
-    finally:
-        gate.close()
+    with _project_behind_gate(tmp_path, database_url, sessions, moto_server) as (client, gate, _, owner,
+                                                                             pid, image):
+        gate.hang()
+        start = time.monotonic()
+        answer = client.get(f"/api/v1/projects/{pid}/images/{image['id']}/file", headers=owner)
+        assert _unavailable(answer), answer.text
+        assert time.monotonic() - start < 30
