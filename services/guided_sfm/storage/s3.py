@@ -78,14 +78,15 @@ class S3Store(Store):
         url = urlsplit(artifacts_url)
         endpoint = endpoint_url or None
 
-        def client(seconds: tuple[float, float], attempts: int):
-            config = Config(connect_timeout=seconds[0], read_timeout=seconds[1],
-                            retries={"max_attempts": attempts, "mode": "standard"},
+        def client(seconds: tuple[float, float], retries: dict):
+            config = Config(connect_timeout=seconds[0], read_timeout=seconds[1], retries=retries,
                             s3={"addressing_style": "path"} if endpoint else None)  # path: MinIO, moto
             return boto3.session.Session().client("s3", endpoint_url=endpoint, config=config)
 
-        return cls(client((CONNECT_SECONDS, READ_SECONDS), ATTEMPTS), url.netloc, url.path,
-                   probe_client=client((PROBE_SECONDS, PROBE_SECONDS), 1))
+        # botocore's max_attempts counts retries (one more try in all), total_max_attempts tries
+        return cls(client((CONNECT_SECONDS, READ_SECONDS), {"max_attempts": ATTEMPTS, "mode": "standard"}),
+                   url.netloc, url.path,
+                   probe_client=client((PROBE_SECONDS, PROBE_SECONDS), {"total_max_attempts": 1}))
 
     def _key(self, key: str) -> str:
         return f"{self.prefix}/{key}" if self.prefix else key
