@@ -39,8 +39,9 @@ TRANSFERS = 8  # parallel downloads when a job fetches its inputs
 CHUNK = 1 << 20  # bytes per chunk when the API streams a file
 PAGE = 1000  # keys per listing request (S3's most)
 # a request waits this long for an endpoint that does not answer (to connect; then for each read:
-# botocore's default is 60 s), and is tried this often in all (botocore's "standard" retries back
-# off between tries): an outage costs a request seconds (a hung endpoint under a minute), not minutes
+# botocore's default is 60 s), and is retried this often after its first try, 4 tries in all
+# (botocore's "standard" retries back off between tries; measured: 4 sends to a hung endpoint):
+# an outage costs a request seconds (a hung endpoint under a minute), not minutes
 CONNECT_SECONDS, READ_SECONDS, ATTEMPTS = 5, 10, 3
 # readiness writes one small object, once and briefly: a probe must answer before its caller gives up
 PROBE_KEY, PROBE_SECONDS = ".guided-sfm-ready", 2  # outside projects/, which the reconciler walks
