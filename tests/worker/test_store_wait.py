@@ -21,8 +21,9 @@ from guided_sfm.core.sfm import CancelToken
 from guided_sfm.db.models import Job, Project, Version
 from guided_sfm.db.session import make_engine, make_sessionmaker
 from guided_sfm.storage import StoreUnavailable, open_store
+from guided_sfm.storage.s3 import S3Store
 from tests.conftest import TestClient, make_settings
-from tests.factories import make_project, signup
+from tests.factories import make_project, signup, workspace_zip
 from tests.s3server import CREDENTIALS, Gate
 
 WAITING = "waiting for the artifact store"
@@ -173,3 +174,33 @@ def test_a_cancel_ends_the_wait():
     threading.Timer(0.3, token.cancel).start()
     with pytest.raises(Cancelled):
         StoreWait(600, lambda _: None, token).run(away([]))
+
+
+def test_an_import_whose_fetch_met_the_store_away_keeps_its_upload_for_the_next_try(
+        gated, monkeypatch, tiny_images, tiny_reconstruction):
+    """The store away while the import fetches its zip, and back at once (a read that timed out
+    while deletes go through): the zip must still be there for the next try, not removed as if
+    the import had read it."""
+    client, sessions, settings, gate, _ = gated(wait_seconds=60)
+    owner = signup(client, "owner")
+    pid = make_project(client, owner, "import")
+    files = {"file": ("ws.zip", workspace_zip(tiny_reconstruction, tiny_images / "images"))}
+    job_id = client.post(f"/api/v1/projects/{pid}/import", files=files, headers=owner).json()["id"]
+    first_fetch = []
+
+    class AwayForTheFirstFetch(S3Store):
+        def fetch(self, key, target):
+            if first_fetch:
+                return super().fetch(key, target)
+            first_fetch.append(key)
+            gate.close()
+            try:
+                return super().fetch(key, target)
+            finally:
+                gate.open()
+
+    store = open_store(settings)
+    monkeypatch.setattr(runner, "open_store", lambda _settings: AwayForTheFirstFetch(
+        store.client, store.bucket, store.prefix))
+    assert runner.run_job(sessions, settings, job_id) == "succeeded", sessions().get(Job, job_id).error
+    assert first_fetch and "/uploads/" in first_fetch[0]
