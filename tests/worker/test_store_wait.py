@@ -6,6 +6,7 @@ row; the store is moto's server behind the tests' TCP gate, which takes it away 
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 import threading
 import time
@@ -13,13 +14,17 @@ import time
 import pytest
 from sqlalchemy import select
 
+from guided_sfm import jobs
 from guided_sfm.actions import runner
+from guided_sfm.actions.context import Produced
+from guided_sfm.actions.publish import publish
 from guided_sfm.actions.store_wait import StoreOutage, StoreWait
 from guided_sfm.api.app import create_app
 from guided_sfm.core.errors import Cancelled
 from guided_sfm.core.sfm import CancelToken
 from guided_sfm.db.models import Job, Project, Version
 from guided_sfm.db.session import make_engine, make_sessionmaker
+from guided_sfm.errors import Conflict
 from guided_sfm.storage import StoreUnavailable, open_store
 from guided_sfm.storage.s3 import S3Store
 from tests.conftest import TestClient, make_settings
@@ -204,3 +209,32 @@ def test_an_import_whose_fetch_met_the_store_away_keeps_its_upload_for_the_next_
         store.client, store.bucket, store.prefix))
     assert runner.run_job(sessions, settings, job_id) == "succeeded", sessions().get(Job, job_id).error
     assert first_fetch and "/uploads/" in first_fetch[0]
+
+
+def test_a_publish_refused_by_the_database_says_so_when_its_cleanup_meets_the_store_away(
+        gated, moto_server, tiny_images, tiny_reconstruction):
+    """Published, then refused (the sweeper ended the job meanwhile), and the store gone as the
+    publish removes what it wrote: the refusal is what the job ends on, not a store outage to
+    wait out (the objects left are the reconciler's)."""
+    client, sessions, settings, gate, bucket = gated(wait_seconds=60)
+    _, pid, _, job_id = queued_apply(client, sessions, settings, tiny_images, tiny_reconstruction)
+    with sessions() as session:
+        assert jobs.claim(session, job_id)
+        jobs.finish(session, job_id, "failed", error="the sweeper gave up on it")
+        session.commit()
+
+    class AwayForTheCleanup(S3Store):
+        def discard(self, version):
+            gate.close()
+            return super().discard(version)
+
+    plain = open_store(settings)
+    store = AwayForTheCleanup(plain.client, plain.bucket, plain.prefix)
+    keys = set(moto_server.objects(bucket))
+    with store.staging(pid) as staging, sessions() as session:
+        shutil.copytree(tiny_reconstruction, staging / "ws")
+        produced = Produced(staging / "ws", "reconstruct", "reconstructed", None, {"num_images": 12})
+        with pytest.raises(Conflict, match="ended by someone else"):
+            publish(session, store, session.get(Job, job_id), produced)
+    gate.open()
+    assert set(moto_server.objects(bucket)) > keys  # what it wrote stays, for the reconciler
