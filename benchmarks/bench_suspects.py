@@ -56,6 +56,7 @@ def timed_runs(root: Path, runs: int) -> dict:
         return wrapper
 
     # the stages of triage_workspace, clocked where of_workspace looks them up
+    evidence.read_model = clocked("evidence", evidence.read_model)  # the model's files, read once
     evidence.gather = clocked("evidence", evidence.gather)
     two_view.anchors_of = clocked("two_view", two_view.anchors_of)
     of_workspace.triage = clocked("judge", suspects.triage)

@@ -49,6 +49,7 @@ class Settings:
     orphan_grace_seconds: float = 600.0  # files without rows this old are removed (reconcile)
     job_base_seconds: float = 3600.0  # a job's time limit: this much ...
     job_seconds_per_image: float = 60.0  # ... plus this per image of its project
+    store_wait_seconds: float = 300.0  # a job waits this long for the artifact store to answer again
     artifacts_url: str = ""  # s3://BUCKET/PREFIX: the S3 store; empty: the data dir (design.md v1.1)
     s3_endpoint_url: str = ""  # an S3-compatible server's URL (MinIO, moto); empty: AWS
 

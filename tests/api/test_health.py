@@ -1,5 +1,5 @@
 """Health as design.md pins it: liveness answers 503 when the database does not; readiness names
-what is down (the database, the broker, the workers)."""
+what is down (the database, the broker, the workers, the artifact store)."""
 
 from guided_sfm.api.app import create_app
 from guided_sfm.db.session import make_engine, make_sessionmaker
@@ -31,3 +31,18 @@ def test_liveness_and_readiness_name_what_is_down(settings, sessions):
         assert response.status_code == 503 and "database is unavailable" in response.json()["detail"]
         assert response.headers["retry-after"]
     engine.dispose()
+
+
+def test_readiness_names_a_data_dir_store_it_cannot_write(settings, sessions):
+    """The data dir's artifacts folder cannot hold a file (a file stands where the folder goes:
+    this fails for root too, unlike a chmod): not ready, naming the store; liveness unchanged."""
+    app = create_app(settings, lambda _: None, sessions=sessions, readiness=dict)
+    with TestClient(app) as client:
+        assert client.get("/api/v1/health/ready").json() == {"status": "ready"}
+        settings.artifacts_dir.rmdir()  # made by the check (a new data dir is ready), left empty
+        settings.artifacts_dir.write_bytes(b"")
+        response = client.get("/api/v1/health/ready")
+        assert response.status_code == 503 and response.json()["down"] == ["store"], response.text
+        assert "artifact store" in response.json()["detail"]
+        assert str(settings.data_dir) not in response.text  # no server paths
+        assert client.get("/api/v1/health").status_code == 200

@@ -128,3 +128,27 @@ def test_an_endpoint_that_answers_nothing_is_503_within_its_read_timeout(tmp_pat
         answer = client.get(f"/api/v1/projects/{pid}/images/{image['id']}/file", headers=owner)
         assert _unavailable(answer), answer.text
         assert time.monotonic() - start < 30
+
+
+def test_readiness_names_an_s3_store_that_is_away_or_refuses_writes(tmp_path, database_url, sessions, s3_env,
+                                                                    moto_server):
+    """/health/ready writes a probe: a closed endpoint, one answering 503 SlowDown and a bucket
+    that is not there are each 503 naming the store; the store back is ready again."""
+    gate, bucket = Gate(moto_server.port), moto_server.new_bucket()
+    try:
+        with _client(tmp_path, database_url, sessions, f"s3://{bucket}/art", gate.url) as client:
+            assert client.get("/api/v1/health/ready").json() == {"status": "ready"}
+            for fault in (gate.close, gate.busy):
+                fault()
+                response = client.get("/api/v1/health/ready")
+                assert response.status_code == 503 and response.json()["down"] == ["store"], response.text
+                assert "artifact store unavailable" in response.json()["detail"]
+                assert client.get("/api/v1/health").status_code == 200  # liveness: API and database
+            gate.open()
+            assert client.get("/api/v1/health/ready").json() == {"status": "ready"}
+        with _client(tmp_path, database_url, sessions, "s3://no-such-bucket/art", gate.url) as client:
+            response = client.get("/api/v1/health/ready")
+            assert response.status_code == 503 and response.json()["down"] == ["store"], response.text
+            assert "NoSuchBucket" in response.json()["detail"]
+    finally:
+        gate.close()

@@ -83,8 +83,8 @@ def _common_root(paths: list[PurePosixPath]) -> tuple[str, ...]:
 
 def run(context: JobContext, work: Path) -> Produced:
     key, upload = context.job.params["upload"], context.scratch / "upload.zip"
+    context.store.fetch(key, upload)  # the store away: the upload stays for the next try
     try:
-        context.store.fetch(key, upload)
         images = _extract(upload, work, context.settings.max_upload_bytes, context.settings.max_image_mpx)
     finally:
         upload.unlink(missing_ok=True)

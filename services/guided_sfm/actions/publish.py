@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 from sqlalchemy.orm import Session
 
 from guided_sfm import jobs
@@ -9,7 +11,9 @@ from guided_sfm.actions import webhooks
 from guided_sfm.actions.context import NewImage, Produced
 from guided_sfm.db.models import Image, Job, PairDeletion, Project, Version
 from guided_sfm.errors import Conflict
-from guided_sfm.storage import Store, image_key
+from guided_sfm.storage import Store, StoreUnavailable, image_key
+
+log = logging.getLogger(__name__)
 
 
 def publish(session: Session, store: Store, job: Job, produced: Produced) -> Version:
@@ -38,10 +42,19 @@ def publish(session: Session, store: Store, job: Job, produced: Produced) -> Ver
         return version
     except BaseException:
         session.rollback()
-        store.discard(relative)
+        _clean_up(store, relative, moved)
+        raise
+
+
+def _clean_up(store: Store, version: str, moved: list[str]) -> None:
+    """What a publish that did not commit wrote. With the store away it stays for the reconciler
+    (orphans: no row names them), and the error that stopped the publish is the one raised."""
+    try:
+        store.discard(version)
         for key in moved:
             store.remove(key)
-        raise
+    except StoreUnavailable as exc:
+        log.warning("files of the failed publish of %s left for the reconciler: %s", version, exc)
 
 
 def _insert(session: Session, job: Job, produced: Produced, relative: str, project: Project) -> Version:

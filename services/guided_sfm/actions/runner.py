@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import shutil
 import threading
 import time
 from collections.abc import Callable
@@ -17,14 +18,15 @@ from guided_sfm import jobs
 from guided_sfm.actions import activity, apply_edit, import_workspace, reconstruct, webhooks
 from guided_sfm.actions.context import JobContext, Produced
 from guided_sfm.actions.publish import publish
+from guided_sfm.actions.store_wait import StoreOutage, StoreWait
 from guided_sfm.core.errors import Cancelled, DomainError
 from guided_sfm.core.sfm import CancelToken
 from guided_sfm.core.stage_clock import StageClock
-from guided_sfm.db.models import Image, Job
+from guided_sfm.db.models import Image, Job, Version
 from guided_sfm.db.session import session_scope
 from guided_sfm.errors import without_paths
 from guided_sfm.settings import Settings
-from guided_sfm.storage import open_store
+from guided_sfm.storage import Store, open_store
 
 log = logging.getLogger(__name__)
 OVERRUN_GRACE_BEATS = 5  # heartbeats a job past its limit gets to notice the cancel before its process exits
@@ -128,26 +130,44 @@ def log_end(sessions: sessionmaker[Session], job_id: int) -> None:
 
 def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: JobToken) -> str:
     store = open_store(settings)
-    clock = StageClock(jobs.Reporter(sessions, job.id))
+    reporter = jobs.Reporter(sessions, job.id)
+    clock = StageClock(reporter)
+    wait = StoreWait(settings.store_wait_seconds, lambda message: reporter.write(message=message), token)
     try:
         with store.staging(job.project_id, prefix=f"job-{job.id}-") as work:
             context = JobContext(settings, store, sessions, job, clock, token, work)
-            produced = ACTIONS[job.kind](context, work / "workspace")
+            # the store away: the action runs again on emptied scratch, the publish under a new
+            # key, and neither holds a transaction while it waits
+            produced = wait.run(lambda: ACTIONS[job.kind](context, _emptied(work) / "workspace"))
             token.check()  # a cancel that arrived after the last step still wins
             produced.timings = clock.report()
-            with session_scope(sessions) as session:
-                version = publish(session, store, job, produced)
+            version = wait.run(lambda: _publish(sessions, store, job, produced))
         log.info("job %s (%s) produced version %s; %s", job.id, job.kind, version.id, produced.timings)
         return "succeeded"
     except Cancelled:
         if token.overrun:
             return _end(sessions, job.id, "failed", clock, error=token.overrun)
         return _end(sessions, job.id, "cancelled", clock, message="cancelled by request")
-    except DomainError as exc:
+    except (DomainError, StoreOutage) as exc:
         return _end(sessions, job.id, "failed", clock, error=str(exc))
     except Exception as exc:  # any crash is recorded on the row; the head stays as it was
         log.exception("job %s crashed", job.id)
         return _end(sessions, job.id, "failed", clock, error=f"{type(exc).__name__}: {exc}")
+
+
+def _emptied(folder: Path) -> Path:
+    """The folder with nothing in it (a try that met the store away may have left half its inputs)."""
+    for child in folder.iterdir():
+        if child.is_dir() and not child.is_symlink():
+            shutil.rmtree(child)
+        else:
+            child.unlink()
+    return folder
+
+
+def _publish(sessions: sessionmaker[Session], store: Store, job: Job, produced: Produced) -> Version:
+    with session_scope(sessions) as session:
+        return publish(session, store, job, produced)
 
 
 def _end(sessions: sessionmaker[Session], job_id: int, state: str, clock: StageClock, **values: str) -> str:

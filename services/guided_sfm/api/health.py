@@ -1,5 +1,5 @@
 """Health as design.md pins it: /health is liveness (the API and its database answer), /health/ready
-adds the broker and at least one live worker; 503 names what is down."""
+adds the broker, at least one live worker and the artifact store; 503 names what is down."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from fastapi.responses import JSONResponse
 from sqlalchemy import text
 
 from guided_sfm.errors import without_paths
+from guided_sfm.storage import StoreUnavailable
 
 Readiness = Callable[[], dict[str, str]]  # part -> problem; empty when the broker and workers are fine
 router = APIRouter(tags=["health"])
@@ -22,6 +23,15 @@ def database_problem(request: Request) -> str | None:
     except Exception as exc:  # any driver error means the same thing here: not answering
         reason = without_paths(str(exc).splitlines()[0][:200])
         return f"the database does not answer ({type(exc).__name__}: {reason})"
+    return None
+
+
+def store_problem(request: Request) -> str | None:
+    """The store must answer and take a write: jobs and uploads need both."""
+    try:
+        request.app.state.store.check()
+    except StoreUnavailable as exc:
+        return str(exc)
     return None
 
 
@@ -38,6 +48,8 @@ def ready(request: Request) -> JSONResponse:
     problems = {}
     if problem := database_problem(request):
         problems["database"] = problem
+    if problem := store_problem(request):
+        problems["store"] = problem
     problems.update(request.app.state.readiness())
     if problems:
         detail = "not ready: " + "; ".join(f"{part}: {why}" for part, why in problems.items())

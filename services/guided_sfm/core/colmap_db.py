@@ -125,6 +125,17 @@ def inlier_matches_of(path: Path, pairs: Iterable[PairKey]) -> dict[PairKey, np.
     return found
 
 
+def keypoint_counts(path: Path, image_ids: Iterable[int]) -> dict[int, int]:
+    """How many keypoints the database lists for each of these images (those it has any for)."""
+    wanted, found = sorted(set(image_ids)), {}
+    with read_only(path) as conn:
+        for start in range(0, len(wanted), SQL_CHUNK):
+            chunk = wanted[start:start + SQL_CHUNK]
+            found.update(conn.execute("SELECT image_id, rows FROM keypoints "
+                                      f"WHERE image_id IN ({','.join('?' * len(chunk))})", chunk))
+    return found
+
+
 def keypoints(path: Path, image_id: int) -> np.ndarray:
     """(N, 2) keypoint positions of an image in pixels (COLMAP origin: pixel corner)."""
     with read_only(path) as conn:

@@ -123,6 +123,10 @@ class Store(ABC):
     def image_location(self, project_id: int) -> str:
         """Where the project's images are, as a workspace records it (informative only)."""
 
+    @abstractmethod
+    def check(self) -> None:
+        """Raise StoreUnavailable unless the store answers and takes a write (readiness); quick."""
+
     def clear_stale_scratch(self) -> int:
         """Scratch dirs left by processes that died mid-job; the count removed."""
         return 0

@@ -11,7 +11,15 @@ from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
-from guided_sfm.storage.base import Blob, Store, image_key, link_file, link_tree, project_prefix
+from guided_sfm.storage.base import (
+    Blob,
+    Store,
+    StoreUnavailable,
+    image_key,
+    link_file,
+    link_tree,
+    project_prefix,
+)
 
 
 class ArtifactStore(Store):
@@ -75,6 +83,16 @@ class ArtifactStore(Store):
     def blob(self, key: str) -> Blob:
         path = self.root / key
         return Blob(path.stat().st_size, path=path)
+
+    def check(self) -> None:
+        """A file made and removed at the root (a missing root is made: a new data dir is fine)."""
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+            with tempfile.NamedTemporaryFile(dir=self.root, prefix=".ready-"):
+                pass
+        except OSError as exc:  # no paths in the reason: readiness answers anyone
+            raise StoreUnavailable(f"artifact store unavailable (the data dir's artifacts folder takes "
+                                   f"no file: {type(exc).__name__})") from exc
 
     # -- versions ---------------------------------------------------------------------------------
 

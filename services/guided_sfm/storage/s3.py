@@ -39,9 +39,12 @@ TRANSFERS = 8  # parallel downloads when a job fetches its inputs
 CHUNK = 1 << 20  # bytes per chunk when the API streams a file
 PAGE = 1000  # keys per listing request (S3's most)
 # a request waits this long for an endpoint that does not answer (to connect; then for each read:
-# botocore's default is 60 s), and is tried this often in all (botocore's "standard" retries back
-# off between tries): an outage costs a request seconds (a hung endpoint under a minute), not minutes
+# botocore's default is 60 s), and is retried this often after its first try, 4 tries in all
+# (botocore's "standard" retries back off between tries; measured: 4 sends to a hung endpoint):
+# an outage costs a request seconds (a hung endpoint under a minute), not minutes
 CONNECT_SECONDS, READ_SECONDS, ATTEMPTS = 5, 10, 3
+# readiness writes one small object, once and briefly: a probe must answer before its caller gives up
+PROBE_KEY, PROBE_SECONDS = ".guided-sfm-ready", 2  # outside projects/, which the reconciler walks
 # what boto3 raises when the store, not the key, is the problem (a missing key is caught before)
 UNAVAILABLE = (ClientError, BotoCoreError, Boto3Error)
 
@@ -63,9 +66,11 @@ def _reaching(method):
 
 
 class S3Store(Store):
-    def __init__(self, client, bucket: str, prefix: str = "", scratch_root: Path | None = None) -> None:
+    def __init__(self, client, bucket: str, prefix: str = "", scratch_root: Path | None = None,
+                 probe_client=None) -> None:
         self.client, self.bucket, self.prefix = client, bucket, prefix.strip("/")
         self.scratch_root = scratch_root or Path(tempfile.gettempdir()) / SCRATCH
+        self.probe_client = probe_client or client
 
     @classmethod
     def from_url(cls, artifacts_url: str, endpoint_url: str = "") -> S3Store:
@@ -73,11 +78,16 @@ class S3Store(Store):
         AWS_DEFAULT_REGION itself."""
         url = urlsplit(artifacts_url)
         endpoint = endpoint_url or None
-        retries = {"max_attempts": ATTEMPTS, "mode": "standard"}
-        config = Config(connect_timeout=CONNECT_SECONDS, read_timeout=READ_SECONDS, retries=retries,
-                        s3={"addressing_style": "path"} if endpoint else None)  # path: MinIO, moto
-        client = boto3.session.Session().client("s3", endpoint_url=endpoint, config=config)
-        return cls(client, url.netloc, url.path)
+
+        def client(seconds: tuple[float, float], retries: dict):
+            config = Config(connect_timeout=seconds[0], read_timeout=seconds[1], retries=retries,
+                            s3={"addressing_style": "path"} if endpoint else None)  # path: MinIO, moto
+            return boto3.session.Session().client("s3", endpoint_url=endpoint, config=config)
+
+        # botocore's max_attempts counts retries (one more try in all), total_max_attempts tries
+        return cls(client((CONNECT_SECONDS, READ_SECONDS), {"max_attempts": ATTEMPTS, "mode": "standard"}),
+                   url.netloc, url.path,
+                   probe_client=client((PROBE_SECONDS, PROBE_SECONDS), {"total_max_attempts": 1}))
 
     def _key(self, key: str) -> str:
         return f"{self.prefix}/{key}" if self.prefix else key
@@ -132,6 +142,11 @@ class S3Store(Store):
             return newest
         head = self._head(key)
         return None if head is None else head["LastModified"].timestamp()
+
+    @_reaching
+    def check(self) -> None:
+        """One empty object written (reachable, the bucket there, writes allowed), tried once."""
+        self.probe_client.put_object(Bucket=self.bucket, Key=self._key(PROBE_KEY), Body=b"")
 
     def _head(self, key: str) -> dict | None:
         """The object's metadata, or None where there is none."""

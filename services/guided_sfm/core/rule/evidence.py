@@ -138,6 +138,7 @@ def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey]) -> Evidenc
         rays.append(_rays(parts.cameras[image_id], xy))
         points.append(model_files.points_of(observed, point_ids, xyz))
     counts = [len(r) for r in rays]
+    held = dict(zip(image_ids, counts, strict=True))
     return Evidence(
         rows={image_id: row for row, image_id in enumerate(image_ids)},
         rotations=np.array(rotations).reshape(-1, 3, 3),
@@ -145,5 +146,20 @@ def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey]) -> Evidenc
         offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
         rays=np.concatenate([np.zeros((0, 3)), *rays]),
         points=np.concatenate([np.zeros((0, 3)), *points]),
-        matches=colmap_db.inlier_matches_of(database, pairs),
+        matches=_held_matches(colmap_db.inlier_matches_of(database, pairs), held,
+                              colmap_db.keypoint_counts(database, image_ids)),
     )
+
+
+def _held_matches(matches: Mapping[PairKey, np.ndarray], held: Mapping[int, int],
+                  listed: Mapping[int, int]) -> dict[PairKey, np.ndarray]:
+    """The matches the model's 2D points can stand for: a match names a keypoint by its index in
+    the database's list, the rays and 3D points are the model's list. A model mapped from this
+    database holds its list whole; one that holds another (fewer points: known poses only, another
+    extraction) lends its image no match, and an index past the list (a foreign database) is left
+    out: read as it is, it would be another keypoint's ray, or another image's."""
+    out = {}
+    for (a, b), rows in matches.items():
+        if a in held and b in held and held[a] == listed.get(a) and held[b] == listed.get(b):
+            out[(a, b)] = rows[(rows[:, 0] < held[a]) & (rows[:, 1] < held[b])]
+    return out

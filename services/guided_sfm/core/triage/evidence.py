@@ -46,20 +46,31 @@ class TriageInput:
     hops: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class ModelReads:
+    """The largest model's files as triage reads them, once: per registered image its 2D points
+    ((N, 2) keypoints in pixels, (N,) point3D id or -1), and the 3D points (sorted ids, xyz)."""
+
+    observations: dict[int, tuple[np.ndarray, np.ndarray]]
+    points: tuple[np.ndarray, np.ndarray]
+
+
+def read_model(model_dir: Path, poses: dict[int, ModelPose]) -> ModelReads:
+    return ModelReads(model_files.read_observations(model_dir, poses), model_files.read_points(model_dir))
+
+
 # A pair's split points are read when at least this many of its inliers are not shared points.
 MIN_SPLIT = 10
 
 
-def split_points(database: Path, model_dir: Path, frame: GroundFrame, poses: dict[int, ModelPose],
-                 pairs: dict[PairKey, int], shared: dict[PairKey, int]
-                 ) -> dict[PairKey, tuple[np.ndarray, np.ndarray]]:
+def split_points(database: Path, reads: ModelReads, frame: GroundFrame, pairs: dict[PairKey, int],
+                 shared: dict[PairKey, int]) -> dict[PairKey, tuple[np.ndarray, np.ndarray]]:
     """Per verified pair of registered images: the ground positions of the 3D points its inlier
     matches join that the model holds as two different points (first image's, second's)."""
     wanted = [k for k, n in pairs.items() if k in shared and n - shared[k] >= MIN_SPLIT]
     if not wanted:
         return {}
-    observations = model_files.read_observations(model_dir, poses)
-    ids, xyz = model_files.read_points(model_dir)
+    observations, (ids, xyz) = reads.observations, reads.points
     out = {}
     for (a, b), rows in colmap_db.inlier_matches_of(database, wanted).items():
         held_a, held_b = observations[a][1], observations[b][1]
@@ -80,10 +91,9 @@ def shared_point_counts(observed: dict[int, np.ndarray], pairs: Iterable[PairKey
     return {p: len(sets[p[0]] & sets[p[1]]) for p in pairs if p[0] in sets and p[1] in sets}
 
 
-def observed_points(model_dir: Path, poses: dict[int, ModelPose]) -> dict[int, np.ndarray]:
+def observed_points(reads: ModelReads) -> dict[int, np.ndarray]:
     """Per registered image: the ids of the 3D points it observes (unique)."""
-    observations = model_files.read_observations(model_dir, poses)
-    return {i: np.unique(ids[ids != model_files.NO_POINT]) for i, (_, ids) in observations.items()}
+    return {i: np.unique(ids[ids != model_files.NO_POINT]) for i, (_, ids) in reads.observations.items()}
 
 
 def _in_view(pose: ModelPose, camera: pycolmap.Camera, xyz: np.ndarray, depth: float) -> np.ndarray:
@@ -118,15 +128,15 @@ def _near_others(scene: TopDownScene, radius: float, window: int) -> dict[int, n
             for i, s, p in zip(ids, seq, xy, strict=True)}
 
 
-def missing_counts(model: pycolmap.Reconstruction, model_dir: Path, scene: TopDownScene,
+def missing_counts(model: pycolmap.Reconstruction, reads: ModelReads, scene: TopDownScene,
                    radius_steps: float = 3.0, window: int = 3,
                    observed: dict[int, np.ndarray] | None = None) -> dict[int, MissingCount]:
     """The missing-correspondence cue per registered camera: of the 3D points seen by cameras
     from elsewhere in the capture placed within radius_steps typical steps of it, those inside
-    its view and depth, how many it observes itself (observed: observed_points, if read)."""
+    its view and depth, how many it observes itself (observed: observed_points, if made)."""
     poses = model_poses(model)
-    observed = observed_points(model_dir, poses) if observed is None else observed
-    ids, xyz = model_files.read_points(model_dir)
+    observed = observed_points(reads) if observed is None else observed
+    ids, xyz = reads.points
     radius = radius_steps * typical_step(scene)
     near = _near_others(scene, radius, window)
     out = {}
@@ -149,10 +159,10 @@ def missing_counts(model: pycolmap.Reconstruction, model_dir: Path, scene: TopDo
 
 
 def gather(scene: TopDownScene, pairs: dict[PairKey, int], model: pycolmap.Reconstruction | None,
-           model_dir: Path | None) -> TriageInput:
+           reads: ModelReads | None) -> TriageInput:
     """TriageInput of a workspace's scene, verified pairs and largest model (None: no model)."""
-    if model is None or model_dir is None:
+    if model is None or reads is None:
         return TriageInput(scene, pairs)
-    observed = observed_points(model_dir, model_poses(model))
+    observed = observed_points(reads)
     return TriageInput(scene, pairs, shared_point_counts(observed, pairs),
-                       missing_counts(model, model_dir, scene, observed=observed))
+                       missing_counts(model, reads, scene, observed=observed))

@@ -17,16 +17,16 @@ def triage_workspace(workspace: Workspace) -> Triage:
     models = workspace.load_models()
     if not models:
         return triage(evidence.gather(scene, workspace.verified_pairs(), None, None))
-    data = evidence.gather(scene, workspace.verified_pairs(), models[0], workspace.model_dir(0))
+    poses = model_poses(models[0])
+    reads = evidence.read_model(workspace.model_dir(0), poses)  # once: three readers below
+    data = evidence.gather(scene, workspace.verified_pairs(), models[0], reads)
     cameras = sorted(scene.cameras, key=lambda c: c.seq)
     share = signals.typical_share(cameras, data.pairs, data.shared_points)
     conflicts = [key for key, n in data.pairs.items() if key in data.shared_points
                  and signals.is_conflict(n, data.shared_points[key], share)]
     anchors = two_view.anchors_of(workspace.require(), models[0], scene.frame, conflicts)
-    split = evidence.split_points(workspace.require(), workspace.model_dir(0), scene.frame,
-                                  model_poses(models[0]), data.pairs, data.shared_points)
+    split = evidence.split_points(workspace.require(), reads, scene.frame, data.pairs, data.shared_points)
     broken = [pair_key(s.before.image_id, s.after.image_id)
               for s in signals.steps_between(cameras, data.pairs, data.shared_points) if s.breaks]
-    hops = two_view.hops_of(workspace.require(), models[0], workspace.model_dir(0), scene.frame,
-                            broken)
+    hops = two_view.hops_of(workspace.require(), models[0], reads, scene.frame, broken)
     return triage(dataclasses.replace(data, anchors=anchors, split_points=split, hops=hops))

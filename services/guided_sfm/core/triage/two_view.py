@@ -14,6 +14,7 @@ import pycolmap
 
 from guided_sfm.core import colmap_db, geometry, model_files
 from guided_sfm.core.colmap_model import ModelPose, model_poses
+from guided_sfm.core.triage.evidence import ModelReads
 from guided_sfm.core.types import GroundFrame, PairKey
 
 MIN_MATCHES, MIN_INLIER_SHARE = 30, 0.5
@@ -111,7 +112,7 @@ def _baseline(b_from_a: np.ndarray, t: np.ndarray, points_a: np.ndarray,
     return scale
 
 
-def hops_of(database: Path, model: pycolmap.Reconstruction, model_dir: Path, frame: GroundFrame,
+def hops_of(database: Path, model: pycolmap.Reconstruction, reads: ModelReads, frame: GroundFrame,
             pairs: Iterable[PairKey]) -> dict[tuple[int, int], np.ndarray]:
     """(start, to) -> where the pair's own matches put camera `to` in start's ground frame, as a
     2D pose (poses2d.between of the two): the relative pose of the matches alone, its baseline
@@ -122,8 +123,7 @@ def hops_of(database: Path, model: pycolmap.Reconstruction, model_dir: Path, fra
     wanted = [p for p in pairs if p[0] in poses and p[1] in poses]
     if not wanted:
         return {}
-    observations = model_files.read_observations(model_dir, {k for p in wanted for k in p})
-    ids, xyz = model_files.read_points(model_dir)
+    observations, (ids, xyz) = reads.observations, reads.points
     out = {}
     for (i, j), rows in colmap_db.inlier_matches_of(database, wanted).items():
         # a model may hold fewer 2D points than the database has keypoints (known poses only)
