@@ -19,6 +19,7 @@ BIN_STEPS = 0.1
 # other direction, 5 deg or more away, scores over SECOND_SHARE of it.
 MIN_PEAK_RATIO, SECOND_SHARE, SECOND_APART_DEG = 4.0, 0.5, 5.0
 MIN_POINTS = 50
+MAX_POINTS = 5000  # every k-th point beyond this: the direction needs no more, big models stay fast
 
 
 def _concentration(xy: np.ndarray, angles: np.ndarray, bin_size: float) -> np.ndarray:
@@ -44,6 +45,7 @@ def wall_direction(xy: np.ndarray, step: float) -> float | None:
     xy = np.asarray(xy, dtype=float).reshape(-1, 2)
     if len(xy) < MIN_POINTS or step <= 0:
         return None
+    xy = xy[::-(-len(xy) // MAX_POINTS)]
     bin_size = BIN_STEPS * step
     coarse = np.radians(np.arange(0.0, 90.0, COARSE_DEG))
     scores = _manhattan(xy, coarse, bin_size)
