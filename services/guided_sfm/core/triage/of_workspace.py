@@ -10,7 +10,7 @@ from guided_sfm.core import group_pose, model_files
 from guided_sfm.core.colmap_model import model_poses
 from guided_sfm.core.triage import evidence, signals, two_view
 from guided_sfm.core.triage.suspects import Triage, triage
-from guided_sfm.core.types import pair_key
+from guided_sfm.core.types import TopDownScene, pair_key
 from guided_sfm.core.workspace import Workspace
 
 
@@ -33,16 +33,15 @@ def triage_workspace(workspace: Workspace) -> Triage:
     hops = two_view.hops_of(workspace.require(), models[0], workspace.model_dir(0), scene.frame,
                             broken)
     return triage(dataclasses.replace(data, anchors=anchors, split_points=split, hops=hops,
-                                      ground_points=_ground_points(workspace, models)))
+                                      ground_points=_ground_points(workspace, scene, models)))
 
 
-def _ground_points(workspace: Workspace, models: list) -> dict[int, np.ndarray]:
+def _ground_points(workspace: Workspace, scene: TopDownScene, models: list) -> dict[int, np.ndarray]:
     """Per model, its 3D points on the ground plane where the scene shows its cameras (the
     largest's as placed, another's at its group poses); none with one model (only another
     model's placement reads them)."""
     if len(models) < 2:
         return {}
-    scene = workspace.scene()
     out = {0: group_pose.upright_points(model_poses(models[0]), scene.frame,
                                         model_files.read_points(workspace.model_dir(0))[1])}
     for index, model in enumerate(models[1:], start=1):
