@@ -140,3 +140,13 @@ def test_a_walk_that_turned_right_stays_and_walls_far_apart_are_not_used():
     # walls 40 deg apart (modulo 90) say less than the walk: another wall, or not a square room
     _, skewed = split_off(8.0, wall_points=True, other_wall_deg=40.0)
     assert _model_errors(walk, skewed) == pytest.approx(_model_errors(walk, split_off(8.0, False)[1]))
+
+
+def test_points_triangulated_far_off_are_left_out_and_every_wall_point_kept():
+    rng = np.random.default_rng(9)
+    walls_xy = room(10, 6, 17.0, rng)  # the walls are the outermost points: none may go
+    strays = rng.uniform(1e3, 1e6, (20, 2)) * rng.choice([-1, 1], (20, 2))  # near-parallel rays
+    kept = walls._without_strays(np.vstack([walls_xy, strays]))
+    np.testing.assert_array_equal(kept, walls_xy)
+    found = walls.wall_direction(np.vstack([walls_xy, strays]), step=0.5)
+    assert found is not None and abs(walls.turn_onto(found, np.radians(17.0))) < np.radians(0.2)

@@ -33,6 +33,14 @@ def _concentration(xy: np.ndarray, angles: np.ndarray, bin_size: float) -> np.nd
     return scores / len(xy) ** 2
 
 
+def _without_strays(xy: np.ndarray) -> np.ndarray:
+    """The points inside the box of their 1st-99th percentiles grown by half its size: a point
+    triangulated far off (near-parallel rays) would stretch the offsets' bins without end."""
+    lo, hi = np.percentile(xy, [1, 99], axis=0)
+    margin = 0.5 * (hi - lo)
+    return xy[np.all((xy >= lo - margin) & (xy <= hi + margin), axis=1)]
+
+
 def _manhattan(xy: np.ndarray, angles: np.ndarray, bin_size: float) -> np.ndarray:
     """Scores of directions modulo 90 deg: a wall and the walls square to it count together."""
     return _concentration(xy, angles, bin_size) + _concentration(xy, angles + QUARTER, bin_size)
@@ -45,7 +53,7 @@ def wall_direction(xy: np.ndarray, step: float) -> float | None:
     xy = np.asarray(xy, dtype=float).reshape(-1, 2)
     if len(xy) < MIN_POINTS or step <= 0:
         return None
-    xy = xy[::-(-len(xy) // MAX_POINTS)]
+    xy = _without_strays(xy[::-(-len(xy) // MAX_POINTS)])
     bin_size = BIN_STEPS * step
     coarse = np.radians(np.arange(0.0, 90.0, COARSE_DEG))
     scores = _manhattan(xy, coarse, bin_size)
