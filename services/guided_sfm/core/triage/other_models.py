@@ -62,7 +62,7 @@ def _trusted_side(pieces: list[Piece], trusted: list[bool], index: int,
 
 
 # The walls correct the walk's turn by at most this much: a walk across a gap of a few turn
-# views was measured 1.5-4 deg off on split (26 deg where the largest model's own turn view
+# views was measured 1.5-4.5 deg off on split (26 deg where the largest model's own turn view
 # is 7 deg off, seed 2); the walls' directions repeat every 90 deg, so a larger correction
 # could be the wrong wall.
 MAX_WALL_TURN_DEG = 30.0
