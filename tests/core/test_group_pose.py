@@ -140,3 +140,29 @@ def test_sub_models_sharing_too_few_images_stay_apart():
     models = [_model(SWAYING), _model(SWAYING[3:] + OTHER)]  # 2 shared images
     assert join_overlapping(models, min_shared=3) is models
     assert len(join_overlapping(list(split_models()))) == 2  # nothing shared
+
+
+def test_a_sub_models_points_are_carried_like_its_cameras_to_their_group_poses(scene_and_models):
+    """A wall the other model sees, in its own (turned, tilted, scaled) frame, lands where the
+    group poses put it: in the same place relative to its cameras as in the world."""
+    from guided_sfm.core.group_pose import points_at_group_poses
+
+    scene, models = scene_and_models
+    rng = np.random.default_rng(8)
+    wall = np.column_stack([rng.uniform(0, 8, 200), np.full(200, 5.0), rng.uniform(0, 3, 200)])
+    tilt = geometry.rotations_about(np.array([1.0, 0.3, 0.2]), np.array([1.2]))[0]
+    own_wall = Similarity(0.4, tilt, np.array([5.0, -2.0, 7.0])).apply(wall)
+    group = {c.image_id: (c.group_pose["x"], c.group_pose["y"]) for c in scene.cameras
+             if c.group_pose is not None}
+    carried = points_at_group_poses(model_poses(models[1]), group, scene.frame, own_wall)
+    # the 2D similarity taking the cameras' true ground positions onto their group poses
+    true_xy = np.array([c[:2] for _, _, c, _ in OTHER])
+    placed = np.array([group[i] for _, i, _, _ in OTHER])
+    def complex_of(xy):
+        return xy[:, 0] + 1j * xy[:, 1]
+
+    a, b = complex_of(true_xy - true_xy.mean(0)), complex_of(placed - placed.mean(0))
+    turn_and_scale = a.conj() @ b / (np.abs(a) ** 2).sum()
+    expected = complex_of(wall[:, :2] - true_xy.mean(0)) * turn_and_scale
+    np.testing.assert_allclose(carried, np.column_stack([expected.real, expected.imag]) + placed.mean(0),
+                               atol=1e-6)

@@ -45,9 +45,7 @@ def group_poses(model: dict[int, ModelPose], order: list[int], frame: GroundFram
     if not ids:
         return {}
     centers = np.array([model[i].center for i in ids])
-    ups = np.array([geometry.camera_up(model[i].rotation) for i in ids])
-    up = ups.mean(axis=0) / (np.linalg.norm(ups.mean(axis=0)) or 1.0)
-    turn = _turn_onto(up, frame.up)
+    turn = _up_turn(model, ids, frame)
     own = spacing(centers)
     scale = largest_spacing / own if own > 0 and largest_spacing > 0 else 1.0
     xy = frame.to_2d((centers - centers.mean(axis=0)) @ turn.T * scale + frame.origin)
@@ -56,6 +54,44 @@ def group_poses(model: dict[int, ModelPose], order: list[int], frame: GroundFram
     xy = xy + _beside(xy, largest_xy)
     return {i: {"x": float(p[0]), "y": float(p[1]), "yaw_deg": float(y)}
             for i, p, y in zip(ids, xy, yaws, strict=True)}
+
+
+def _up_turn(model: dict[int, ModelPose], ids: list[int], frame: GroundFrame) -> np.ndarray:
+    """The rotation taking the cameras' mean up onto the scene's up."""
+    ups = np.array([geometry.camera_up(model[i].rotation) for i in ids])
+    up = ups.mean(axis=0) / (np.linalg.norm(ups.mean(axis=0)) or 1.0)
+    return _turn_onto(up, frame.up)
+
+
+def points_at_group_poses(model: dict[int, ModelPose], placed: dict[int, tuple[float, float]],
+                          frame: GroundFrame, points: np.ndarray) -> np.ndarray:
+    """(N, 2) the sub-model's 3D points (N, 3) in the scene's 2D frame, carried like its cameras
+    (placed: {image_id: (x, y)} of its group poses): their walls say how it is turned."""
+    ids = [i for i in placed if i in model]
+    if not ids or not len(points):
+        return np.zeros((0, 2))
+    turn = _up_turn(model, ids, frame)
+    own = frame.to_2d(np.array([model[i].center for i in ids]) @ turn.T)
+    target = np.array([placed[i] for i in ids], dtype=float)
+    # the group poses are the turned centres scaled and shifted: recover both from them
+    own_centred, target_centred = own - own.mean(axis=0), target - target.mean(axis=0)
+    spread = float((own_centred**2).sum())
+    scale = float((own_centred * target_centred).sum()) / spread if spread > 0 else 1.0
+    return scale * (frame.to_2d(np.asarray(points) @ turn.T) - own.mean(axis=0)) + target.mean(axis=0)
+
+
+def upright_points(model: dict[int, ModelPose], frame: GroundFrame, points: np.ndarray) -> np.ndarray:
+    """(N, 2) the model's 3D points (N, 3) seen from above along its cameras' mean up, then
+    carried into the scene's 2D frame as directions are: where the frame's fitted ground is
+    tilted (a model that sees one wall only: 22-30 deg on split seeds 1, 2, 7) the walls seen
+    along the frame's up are wide bands, seen along the cameras' up they are lines."""
+    ids = list(model)
+    if not ids or not len(points):
+        return np.zeros((0, 2))
+    turn = _up_turn(model, ids, frame)
+    axes = np.stack([frame.x_axis, frame.y_axis], axis=1)  # (3, 2)
+    upright = frame.to_2d(np.asarray(points) @ turn.T)
+    return upright @ (axes.T @ turn.T @ axes).T  # each upright direction as the frame shows it
 
 
 def _beside(xy: np.ndarray, largest_xy: np.ndarray) -> np.ndarray:

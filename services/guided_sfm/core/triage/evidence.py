@@ -44,6 +44,9 @@ class TriageInput:
     # (start, to) -> where a capture neighbour's matches put `to` in start's ground frame, as a
     # 2D pose (two_view.hops_of), for the neighbours across each break
     hops: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
+    # per model index: its 3D points on the ground plane where its cameras are (the largest
+    # model's as placed, another's at its group poses), for the walls' direction (walls.py)
+    ground_points: dict[int, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
+
+from guided_sfm.core import group_pose, model_files
 from guided_sfm.core.colmap_model import model_poses
 from guided_sfm.core.triage import evidence, signals, two_view
 from guided_sfm.core.triage.suspects import Triage, triage
-from guided_sfm.core.types import pair_key
+from guided_sfm.core.types import TopDownScene, pair_key
 from guided_sfm.core.workspace import Workspace
 
 
@@ -29,4 +32,21 @@ def triage_workspace(workspace: Workspace) -> Triage:
     broken = [pair_key(s.before.image_id, s.after.image_id)
               for s in signals.steps_between(cameras, data.pairs, data.shared_points) if s.breaks]
     hops = two_view.hops_of(workspace.require(), models[0], reads, scene.frame, broken)
-    return triage(dataclasses.replace(data, anchors=anchors, split_points=split, hops=hops))
+    return triage(dataclasses.replace(data, anchors=anchors, split_points=split, hops=hops,
+                                      ground_points=_ground_points(workspace, scene, models, poses, reads)))
+
+
+def _ground_points(workspace: Workspace, scene: TopDownScene, models: list, poses: dict,
+                   reads: evidence.ModelReads) -> dict[int, np.ndarray]:
+    """Per model, its 3D points on the ground plane where the scene shows its cameras (the
+    largest's as placed, another's at its group poses); none with one model (only another
+    model's placement reads them)."""
+    if len(models) < 2:
+        return {}
+    out = {0: group_pose.upright_points(poses, scene.frame, reads.points[1])}
+    for index, model in enumerate(models[1:], start=1):
+        placed = {c.image_id: (c.group_pose["x"], c.group_pose["y"]) for c in scene.cameras
+                  if c.model == index and c.group_pose is not None}
+        out[index] = group_pose.points_at_group_poses(
+            model_poses(model), placed, scene.frame, model_files.read_points(workspace.model_dir(index))[1])
+    return out

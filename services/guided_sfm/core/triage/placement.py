@@ -86,12 +86,15 @@ def _flipped(piece: Piece) -> Piece:
 
 
 def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
-                 split_points: dict | None = None, hops: dict | None = None) -> Placement | None:
+                 split_points: dict | None = None, hops: dict | None = None,
+                 ground_points: dict | None = None) -> Placement | None:
     """Where every piece probably belongs, walking out from the anchor both ways; a moved piece
     whose look-alike matches with the pieces placed before it imply a clear symmetry is moved by
     it; one that follows a capture neighbour's hop across its break (two_view.hops_of) is put
     there; one whose pairs to trusted cameras say where it is (two_view.Anchor) is fitted to
-    them."""
+    them; another model's pieces continue the capture across the gap, turned so its walls run
+    the way the largest model's do (other_models.py, ground_points: per model, its points on the
+    ground plane)."""
     anchor = anchor_of(pieces)
     if anchor is None:
         return None
@@ -113,7 +116,7 @@ def place_pieces(pieces: list[Piece], step: float, anchors: list = (),
     between = _between_trusted(pieces, poses, sure, step)
     by_hop = _follow_hops(pieces, poses, anchor, [s or b for s, b in zip(sure, between, strict=True)],
                           hops or {}, step)
-    other_models.place_other_models(pieces, poses, sure, step)
+    other_models.place_other_models(pieces, poses, sure, step, ground_points)
     # two-view anchors are seen from the anchor camera's model pose: only trusted pieces give
     # them, and a piece the symmetry or a hop moved keeps that move
     _to_anchors(pieces, poses, trusted, anchors, step,

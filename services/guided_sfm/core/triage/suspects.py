@@ -62,7 +62,8 @@ def triage(data: TriageInput) -> Triage:
     group_poses = {c.image_id: (c.group_pose["x"], c.group_pose["y"], c.group_pose["yaw_deg"])
                    for c in cameras if c.group_pose is not None}
     pieces = cut_pieces(cameras, steps, group_poses)
-    placement = place_pieces(pieces, step, data.anchors, data.split_points, data.hops)
+    placement = place_pieces(pieces, step, data.anchors, data.split_points, data.hops,
+                             data.ground_points)
     if placement is None:
         return Triage([], [])
     moved = [i for i, piece in enumerate(pieces) if not placement.trusted[i]]
