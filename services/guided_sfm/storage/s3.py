@@ -12,6 +12,7 @@ import json
 import os
 import shutil
 import tempfile
+import time
 import uuid
 from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -56,11 +57,13 @@ def _reaching(method):
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
         try:
-            return method(self, *args, **kwargs)
+            result = method(self, *args, **kwargs)
         except ParamValidationError:  # a call this code got wrong, not the store's state
             raise
         except UNAVAILABLE as exc:
             raise StoreUnavailable(f"artifact store unavailable ({_reason(exc)})") from exc
+        self.answered_at = time.monotonic()
+        return result
 
     return wrapper
 
