@@ -282,3 +282,20 @@ def test_an_s3_store_notes_when_it_last_answered(moto_server, monkeypatch):
     before = time.monotonic()
     store.put_bytes("probe", b"1")
     assert store.answered_at is not None and store.answered_at >= before
+
+
+def test_a_fetch_of_many_files_stops_at_the_first_store_error(tmp_path):
+    """The store away while a job fetches its images: the step fails once the first fetch does,
+    so the wait (and a cancel) can act, not after every queued fetch has met the outage too
+    (with a hung endpoint each takes its tries of 10 s: hours for a thousand images)."""
+    calls = []
+
+    class Away(S3Store):
+        def fetch(self, key, target):
+            calls.append(key)
+            time.sleep(0.02)  # a call's tries against an endpoint that is away
+            raise StoreUnavailable("artifact store unavailable (SlowDown)")
+
+    with pytest.raises(StoreUnavailable):
+        Away(None, "bucket").images_for(1, [f"{i}.jpg" for i in range(400)], tmp_path)
+    assert len(calls) < 100, len(calls)  # the fetches already running, not all 400

@@ -235,8 +235,14 @@ class S3Store(Store):
 
     def _fetch_all(self, pairs: list[tuple[str, Path]]) -> None:
         with ThreadPoolExecutor(TRANSFERS) as pool:
-            for done in [pool.submit(self.fetch, key, target) for key, target in pairs]:
-                done.result()
+            futures = [pool.submit(self.fetch, key, target) for key, target in pairs]
+            try:
+                for done in futures:
+                    done.result()
+            except BaseException:  # the first failure ends the fetch: the rest would meet it too
+                for future in futures:
+                    future.cancel()
+                raise
 
     @_reaching
     def fetch_member(self, version: str, member: str, target: Path) -> bool:
