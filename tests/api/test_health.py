@@ -3,7 +3,7 @@ what is down (the database, the broker, the workers, the artifact store)."""
 
 from guided_sfm.api.app import create_app
 from guided_sfm.db.session import make_engine, make_sessionmaker
-from tests.conftest import TestClient
+from tests.conftest import TestClient, make_settings
 
 NOWHERE = "postgresql+psycopg://postgres@127.0.0.1:9/none?connect_timeout=2"  # port 9: nothing listens
 
@@ -46,3 +46,18 @@ def test_readiness_names_a_data_dir_store_it_cannot_write(settings, sessions):
         assert "artifact store" in response.json()["detail"]
         assert str(settings.data_dir) not in response.text  # no server paths
         assert client.get("/api/v1/health").status_code == 200
+
+
+def test_readiness_names_a_store_it_cannot_even_ask(tmp_path, database_url, sessions, monkeypatch):
+    """A bucket name S3 refuses before any request (a misconfigured GUIDED_SFM_ARTIFACTS_URL):
+    not ready, naming the store, as JSON, without the bucket's name; not a bare 500."""
+    for name, value in {"AWS_ACCESS_KEY_ID": "x", "AWS_SECRET_ACCESS_KEY": "y",
+                        "AWS_DEFAULT_REGION": "us-east-1"}.items():
+        monkeypatch.setenv(name, value)
+    settings = make_settings(tmp_path / "data", database_url, artifacts_url="s3://no such bucket/art",
+                             s3_endpoint_url="http://127.0.0.1:9")  # port 9: nothing listens
+    with TestClient(create_app(settings, lambda _: None, sessions=sessions, readiness=dict)) as client:
+        response = client.get("/api/v1/health/ready")
+        assert response.status_code == 503 and response.json()["down"] == ["store"], response.text
+        assert "artifact store unavailable" in response.json()["detail"]
+        assert "no such bucket" not in response.text

@@ -15,7 +15,7 @@ import pytest
 from sqlalchemy import select
 
 from guided_sfm import jobs
-from guided_sfm.actions import runner
+from guided_sfm.actions import runner, store_wait
 from guided_sfm.actions.context import Produced
 from guided_sfm.actions.publish import publish
 from guided_sfm.actions.store_wait import StoreOutage, StoreWait
@@ -238,3 +238,64 @@ def test_a_publish_refused_by_the_database_says_so_when_its_cleanup_meets_the_st
             publish(session, store, session.get(Job, job_id), produced)
     gate.open()
     assert set(moto_server.objects(bucket)) > keys  # what it wrote stays, for the reconciler
+
+
+class Clock:
+    """time as store_wait reads it, moved by the test: sleeping moves it on."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
+
+
+def test_the_wait_counts_from_when_the_store_last_answered(monkeypatch):
+    """Away at the first try; the second try's calls answer for longer than the wait, then one
+    does not: a new outage, not one that has lasted since the first try. The third try runs."""
+    clock, answered = Clock(), []
+    monkeypatch.setattr(store_wait, "time", clock)
+
+    def step():
+        tries.append(clock.now)
+        if len(tries) == 2:
+            clock.now += 100.0  # a long fetch the store answers ...
+            answered.append(clock.now)
+            clock.now += 0.1  # ... then a call it does not
+        if len(tries) < 3:
+            raise StoreUnavailable("artifact store unavailable (SlowDown)")
+        return "done"
+
+    tries: list[float] = []
+    wait = StoreWait(10.0, lambda _: None, CancelToken(), answered=lambda: answered[-1] if answered else None)
+    assert wait.run(step) == "done" and len(tries) == 3
+
+
+def test_an_s3_store_notes_when_it_last_answered(moto_server, monkeypatch):
+    for name, value in CREDENTIALS.items():
+        monkeypatch.setenv(name, value)
+    store = S3Store.from_url(f"s3://{moto_server.new_bucket()}/art", moto_server.url)
+    assert store.answered_at is None
+    before = time.monotonic()
+    store.put_bytes("probe", b"1")
+    assert store.answered_at is not None and store.answered_at >= before
+
+
+def test_a_fetch_of_many_files_stops_at_the_first_store_error(tmp_path):
+    """The store away while a job fetches its images: the step fails once the first fetch does,
+    so the wait (and a cancel) can act, not after every queued fetch has met the outage too
+    (with a hung endpoint each takes its tries of 10 s: hours for a thousand images)."""
+    calls = []
+
+    class Away(S3Store):
+        def fetch(self, key, target):
+            calls.append(key)
+            time.sleep(0.02)  # a call's tries against an endpoint that is away
+            raise StoreUnavailable("artifact store unavailable (SlowDown)")
+
+    with pytest.raises(StoreUnavailable):
+        Away(None, "bucket").images_for(1, [f"{i}.jpg" for i in range(400)], tmp_path)
+    assert len(calls) < 100, len(calls)  # the fetches already running, not all 400

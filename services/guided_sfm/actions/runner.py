@@ -132,7 +132,8 @@ def _run(sessions: sessionmaker[Session], settings: Settings, job: Job, token: J
     store = open_store(settings)
     reporter = jobs.Reporter(sessions, job.id)
     clock = StageClock(reporter)
-    wait = StoreWait(settings.store_wait_seconds, lambda message: reporter.write(message=message), token)
+    wait = StoreWait(settings.store_wait_seconds, lambda message: reporter.write(message=message), token,
+                     lambda: store.answered_at)
     try:
         with store.staging(job.project_id, prefix=f"job-{job.id}-") as work:
             context = JobContext(settings, store, sessions, job, clock, token, work)

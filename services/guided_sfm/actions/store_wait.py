@@ -2,7 +2,8 @@
 call already tries a few times within seconds; an outage longer than that (a restart, a network
 cut) would fail a job that has mapped for an hour. So a step that meets StoreUnavailable runs again
 after a pause that doubles (1 s, 2 s, ... at most 30 s), the job's row saying it waits for the
-store, until the store has been away for GUIDED_SFM_STORE_WAIT_SECONDS; then the job fails naming
+store, until the store has been away for GUIDED_SFM_STORE_WAIT_SECONDS (since it last answered: a
+try that fetched for minutes before a call failed meets a new outage); then the job fails naming
 the store. A step runs again whole, so it must be safe to repeat: fetching inputs into emptied
 scratch, publishing under a new key (what a failed try left is the reconciler's)."""
 
@@ -29,10 +30,12 @@ class StoreOutage(Exception):
 
 class StoreWait:
     """run(step): the step's result, waiting out the store's absences of up to `patience` seconds;
-    `say(message)` puts what the job is doing on its row."""
+    `say(message)` puts what the job is doing on its row; `answered()` when the store last
+    answered a call (time.monotonic(), None if never)."""
 
-    def __init__(self, patience: float, say: Callable[[str], None], cancel: CancelToken) -> None:
-        self.patience, self.say, self.cancel = patience, say, cancel
+    def __init__(self, patience: float, say: Callable[[str], None], cancel: CancelToken,
+                 answered: Callable[[], float | None] = lambda: None) -> None:
+        self.patience, self.say, self.cancel, self.answered = patience, say, cancel, answered
 
     def run(self, step: Callable[[], T]) -> T:
         away_since, pause = None, FIRST_PAUSE
@@ -40,7 +43,11 @@ class StoreWait:
             try:
                 result = step()
             except StoreUnavailable as exc:
-                away_since = time.monotonic() if away_since is None else away_since
+                last = self.answered()
+                if away_since is None:
+                    away_since = time.monotonic()
+                elif last is not None and last > away_since:  # back meanwhile: a new outage
+                    away_since, pause = last, FIRST_PAUSE
                 away = time.monotonic() - away_since
                 if away >= self.patience:
                     raise StoreOutage(

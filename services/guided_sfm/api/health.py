@@ -32,6 +32,8 @@ def store_problem(request: Request) -> str | None:
         request.app.state.store.check()
     except StoreUnavailable as exc:
         return str(exc)
+    except Exception as exc:  # a store that cannot even be asked (a bucket name S3 refuses) is down
+        return f"artifact store unavailable ({type(exc).__name__})"  # its text names the bucket
     return None
 
 

@@ -113,12 +113,17 @@ class Workspace:
 
     def load_models(self) -> list[pycolmap.Reconstruction]:
         """The sparse models, largest first (empty when it was never mapped)."""
-        return colmap_model.load_models(self.sparse) if self.sparse.is_dir() else []
+        return [model for _, model in self.load_models_with_dirs()]
+
+    def load_models_with_dirs(self) -> list[tuple[Path, pycolmap.Reconstruction]]:
+        """(folder, model) of the sparse models, largest first: an imported workspace's folders
+        need not be numbered in that order."""
+        return colmap_model.load_models_with_dirs(self.sparse) if self.sparse.is_dir() else []
 
     def build_scene(self) -> TopDownScene:
         """The top-down scene built from the models and database (nothing written)."""
         database = self.require()
-        loaded = colmap_model.load_models_with_dirs(self.sparse) if self.sparse.is_dir() else []
+        loaded = self.load_models_with_dirs()
         if not loaded:
             raise EmptyModel(f"{self.root} has no sparse model to build a scene from")
         return topdown.build_scene([model for _, model in loaded], loaded[0][0],

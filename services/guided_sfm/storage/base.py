@@ -60,6 +60,10 @@ class Blob:
 class Store(ABC):
     """One interface, two backends: the data dir (local.ArtifactStore) and S3 (s3.S3Store)."""
 
+    # time.monotonic() of the last call the store answered (None: none yet, or a store that is
+    # never unavailable); a job's wait for the store counts from it (actions/store_wait.py)
+    answered_at: float | None = None
+
     # -- single files by key ----------------------------------------------------------------------
 
     @abstractmethod

@@ -12,6 +12,7 @@ import json
 import os
 import shutil
 import tempfile
+import time
 import uuid
 from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -56,11 +57,13 @@ def _reaching(method):
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
         try:
-            return method(self, *args, **kwargs)
+            result = method(self, *args, **kwargs)
         except ParamValidationError:  # a call this code got wrong, not the store's state
             raise
         except UNAVAILABLE as exc:
             raise StoreUnavailable(f"artifact store unavailable ({_reason(exc)})") from exc
+        self.answered_at = time.monotonic()
+        return result
 
     return wrapper
 
@@ -232,8 +235,14 @@ class S3Store(Store):
 
     def _fetch_all(self, pairs: list[tuple[str, Path]]) -> None:
         with ThreadPoolExecutor(TRANSFERS) as pool:
-            for done in [pool.submit(self.fetch, key, target) for key, target in pairs]:
-                done.result()
+            futures = [pool.submit(self.fetch, key, target) for key, target in pairs]
+            try:
+                for done in futures:
+                    done.result()
+            except BaseException:  # the first failure ends the fetch: the rest would meet it too
+                for future in futures:
+                    future.cancel()
+                raise
 
     @_reaching
     def fetch_member(self, version: str, member: str, target: Path) -> bool:

@@ -17,11 +17,12 @@ from guided_sfm.core.workspace import Workspace
 def triage_workspace(workspace: Workspace) -> Triage:
     """Suspects and runs of the workspace's scene, verified pairs and largest model."""
     scene = workspace.scene()
-    models = workspace.load_models()
-    if not models:
+    loaded = workspace.load_models_with_dirs()  # sparse/<k> is not always the k-th largest
+    if not loaded:
         return triage(evidence.gather(scene, workspace.verified_pairs(), None, None))
+    models = [model for _, model in loaded]
     poses = model_poses(models[0])
-    reads = evidence.read_model(workspace.model_dir(0), poses)  # once: three readers below
+    reads = evidence.read_model(loaded[0][0], poses)  # once: three readers below
     data = evidence.gather(scene, workspace.verified_pairs(), models[0], reads)
     cameras = sorted(scene.cameras, key=lambda c: c.seq)
     share = signals.typical_share(cameras, data.pairs, data.shared_points)
@@ -33,20 +34,20 @@ def triage_workspace(workspace: Workspace) -> Triage:
               for s in signals.steps_between(cameras, data.pairs, data.shared_points) if s.breaks]
     hops = two_view.hops_of(workspace.require(), models[0], reads, scene.frame, broken)
     return triage(dataclasses.replace(data, anchors=anchors, split_points=split, hops=hops,
-                                      ground_points=_ground_points(workspace, scene, models, poses, reads)))
+                                      ground_points=_ground_points(scene, loaded, poses, reads)))
 
 
-def _ground_points(workspace: Workspace, scene: TopDownScene, models: list, poses: dict,
+def _ground_points(scene: TopDownScene, loaded: list, poses: dict,
                    reads: evidence.ModelReads) -> dict[int, np.ndarray]:
     """Per model, its 3D points on the ground plane where the scene shows its cameras (the
     largest's as placed, another's at its group poses); none with one model (only another
     model's placement reads them)."""
-    if len(models) < 2:
+    if len(loaded) < 2:
         return {}
     out = {0: group_pose.upright_points(poses, scene.frame, reads.points[1])}
-    for index, model in enumerate(models[1:], start=1):
+    for index, (folder, model) in enumerate(loaded[1:], start=1):
         placed = {c.image_id: (c.group_pose["x"], c.group_pose["y"]) for c in scene.cameras
                   if c.model == index and c.group_pose is not None}
         out[index] = group_pose.points_at_group_poses(
-            model_poses(model), placed, scene.frame, model_files.read_points(workspace.model_dir(index))[1])
+            model_poses(model), placed, scene.frame, model_files.read_points(folder)[1])
     return out
