@@ -144,3 +144,54 @@ def test_a_large_cold_map_runs_sparser_global_adjustments(count, ratio, tmp_path
     sfm._incremental_map(tmp_path / "database.db", tmp_path, str(tmp_path), RunContext(), None,
                          False, count)
     assert seen and all(pair == pytest.approx((ratio, ratio)) for pair in seen)
+
+
+LARGE = sfm.LARGE_MAP_ABOVE_IMAGES + 100  # 200 images: a large capture
+SMALL = sfm.LARGE_MAP_ABOVE_IMAGES        # 100 images: the small path
+
+
+@pytest.mark.parametrize(("registered", "num_images", "retry"), [
+    ([range(0, 99), range(100, 199)], LARGE, False),  # two legs, 99 + 99 of 200: the capture splits
+    ([range(0, 99), range(90, 190)], LARGE, False),   # legs sharing images (hall-300's far turn)
+    ([range(0, 5)], LARGE, True),                     # a dead-end start: most images in no model
+    ([range(0, 40), range(50, 60)], LARGE, True),     # together still under half
+    ([range(0, 100)], LARGE, False),                  # the largest holds half: done
+    ([], LARGE, True),                                # nothing registered
+    ([range(0, 49), range(50, 99)], SMALL, True),     # small captures keep the first rule
+    ([range(0, 50)], SMALL, False),
+])
+def test_a_cold_start_is_retried_only_where_another_seed_can_help(registered, num_images, retry):
+    assert sfm.cold_start_worth_retrying([set(ids) for ids in registered], num_images) is retry
+
+
+class _Registered:
+    """What the retry loop reads of a model: its registered image ids."""
+
+    def __init__(self, ids):
+        self.ids = list(ids)
+
+    def num_reg_images(self):
+        return len(self.ids)
+
+    def reg_image_ids(self):
+        return self.ids
+
+
+@pytest.mark.parametrize(("count", "split", "starts"), [
+    (LARGE, [range(0, 99), range(100, 199)], 1),  # a structural split maps once
+    (LARGE, [range(0, 5)], sfm.COLD_START_ATTEMPTS),  # a dead end starts again
+    (SMALL, [range(0, 49), range(50, 99)], sfm.COLD_START_ATTEMPTS),  # the small path unchanged
+])
+def test_a_cold_map_split_by_the_capture_itself_maps_once(count, split, starts, tmp_path,
+                                                          monkeypatch):
+    seeds = []
+
+    def mapper(database, image_dir, out, mapping, **kwargs):
+        seeds.append(mapping.random_seed)
+        return {i: _Registered(ids) for i, ids in enumerate(split)}
+
+    monkeypatch.setattr(pycolmap, "incremental_mapping", mapper)
+    models = sfm._incremental_map(tmp_path / "database.db", tmp_path, str(tmp_path), RunContext(),
+                                  None, False, count)
+    assert len(seeds) == len(set(seeds)) == starts
+    assert sorted(m.num_reg_images() for m in models.values()) == sorted(map(len, split))

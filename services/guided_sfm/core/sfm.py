@@ -6,7 +6,7 @@ from __future__ import annotations
 import logging
 import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from itertools import combinations
@@ -43,7 +43,10 @@ EXTRACT_CHUNKS, MIN_EXTRACT_CHUNK = 10, 8
 MATCH_CHUNKS = 10
 # A cold incremental map now and then settles on a dead-end initial pair (Lund, a forward walk:
 # 2 of 29 images in 2 of about 10 runs on 2 threads); it starts again, with another seed,
-# while its largest model holds less than this share of the images.
+# while its largest model holds less than this share of the images. Above
+# LARGE_MAP_ABOVE_IMAGES only while its models together hold less than the share as well
+# (cold_start_worth_retrying): hall-1000 split into two legs of ~496 images at both turns, and
+# two more starts of 13 and 23 min gave the same 496 (docs/engine.md "Registration at scale").
 COLD_START_ATTEMPTS, COLD_START_SHARE = 3, 0.5
 # Above this many images a cold incremental map is "large": its global BAs are sparser
 # (LARGE_GLOBAL_BA_RATIO) and its sub-models that share registered images with the largest are
@@ -343,6 +346,21 @@ def _largest(models: dict) -> int:
     return max((model.num_reg_images() for model in models.values()), default=0)
 
 
+def cold_start_worth_retrying(registered: Sequence[Collection[int]], num_images: int) -> bool:
+    """Whether a cold map whose models registered these image ids may do better from another seed.
+
+    Another seed helps a map that ran into a dead end: few images in any model. It cannot help a
+    capture whose match graph is itself cut (a hall's legs joined by a handful of pairs at each
+    turn): its models together hold most of the images, and each start finds the same pieces.
+    Small captures keep the first rule alone (their figures stand)."""
+    threshold = COLD_START_SHARE * num_images
+    if max(map(len, registered), default=0) >= threshold:
+        return False
+    if num_images <= LARGE_MAP_ABOVE_IMAGES:
+        return True
+    return len(set().union(*registered)) < threshold
+
+
 def _global_map(database: Path, image_dir: Path, out: str, run: RunContext) -> dict:
     mapping = pycolmap.GlobalPipelineOptions()
     mapping.num_threads = run.options.num_threads
@@ -386,7 +404,8 @@ def _incremental_map(database: Path, image_dir: Path, out: str, run: RunContext,
         run.check()
         if _largest(found) > _largest(models):
             models = found
-        if _largest(models) >= COLD_START_SHARE * num_images:
+        if not cold_start_worth_retrying(
+                [model.reg_image_ids() for model in models.values()], num_images):
             break
         log.warning("A cold start registered %d of %d images; starting again.",
                     _largest(models), num_images)
