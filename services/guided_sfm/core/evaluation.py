@@ -23,6 +23,7 @@ class CameraStatus:
     unregistered: list[str]
     num_models: int
     truth_from_model: metrics.Similarity
+    aligned_on: str = "all"  # "reference": the cameras right before the edit; "all": every camera
 
     @property
     def wrong(self) -> list[str]:
@@ -39,15 +40,20 @@ def camera_status(ws: Workspace, truth: Truth, reference: list[str] | None = Non
     if not models:
         raise EmptyModel(f"{ws.root} has no sparse model to evaluate")
     poses = {n: p for n, p in colmap_model.camera_poses(models[0]).items() if n in truth.cameras}
-    names = sorted(poses) if reference is None else sorted(set(reference) & set(poses))
+    names = sorted(set(reference or ()) & set(poses))
+    # design.md: the cameras right before the edit, else all cameras (LO-RANSAC keeps it robust);
+    # a model that was wrong everywhere before (a collapsed 1,000-photo hall) has none right
+    aligned_on = "reference" if len(names) >= 3 else "all"
+    if aligned_on == "all":
+        names = sorted(poses)
     if len(names) < 3:
-        raise EmptyModel(f"{ws.root}: fewer than 3 reference cameras to align with the truth")
+        raise EmptyModel(f"{ws.root}: fewer than 3 registered cameras to align with the truth")
     sim = metrics.align_similarity(np.array([poses[n][1] for n in names]),
                                    np.array([truth.cameras[n].center for n in names]))
     true_poses = {n: (c.rotation, c.center) for n, c in truth.cameras.items()}
     all_names = set(ws.image_names().values())
     return CameraStatus(metrics.camera_errors(poses, true_poses, sim),
-                        sorted(all_names - set(poses)), len(models), sim)
+                        sorted(all_names - set(poses)), len(models), sim, aligned_on)
 
 
 def target_errors(status: CameraStatus, targets: list[str]) -> dict[str, float | None]:
@@ -88,6 +94,7 @@ def evaluate_workspace(ws: Workspace, truth_file: Path, reference_from: Workspac
         "num_images": len(status.errors) + len(status.unregistered),
         "num_registered": len(status.errors),
         "num_models": status.num_models,
+        "aligned_on": status.aligned_on,
         "num_wrong": len(status.wrong),
         "num_unregistered": len(status.unregistered),
         "wrong": status.wrong,
