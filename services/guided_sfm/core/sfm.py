@@ -81,6 +81,9 @@ class SfmOptions:
     # None: a budget that follows the image's area (features_for_size); a number overrides it.
     max_num_features: int | None = None
     features: str = "standard"  # a key of FEATURES
+    # Longest image side SIFT runs at (the image is scaled down, its keypoints scaled back to the
+    # file's pixels). None: COLMAP's own, 3200 for SIFT; docs/engine.md "Real photo resolution".
+    max_image_size: int | None = None
     sequential_overlap: int = 10
     # COLMAP's default of 30 also rejects initial pairs that triangulate fewer points; forward
     # walks such as the Lund street then never start (2 of 29 images); 15 registers 28 of 29.
@@ -105,6 +108,8 @@ class SfmOptions:
         if self.num_threads < 1 or (self.max_num_features is not None
                                     and self.max_num_features < 64):
             raise InvalidInput("num_threads must be >= 1 and max_num_features >= 64")
+        if self.max_image_size is not None and self.max_image_size < 64:
+            raise InvalidInput("max_image_size must be >= 64")
 
     def to_dict(self) -> dict[str, object]:
         return asdict(self)
@@ -191,6 +196,8 @@ def extract_features(image_dir: Path, database: Path, run: RunContext = RunConte
     extraction = pycolmap.FeatureExtractionOptions()
     extraction.num_threads = options.num_threads
     extraction.use_gpu = False
+    if options.max_image_size is not None:
+        extraction.max_image_size = options.max_image_size
     extraction.sift.first_octave, extraction.sift.peak_threshold = FEATURES[options.features]
     reader = pycolmap.ImageReaderOptions()
     reader.camera_model = options.camera_model
