@@ -17,7 +17,9 @@ With --work the renders are kept and reused; without it everything goes to a tem
 of view; a render per resolution, kept under --work), --views keeps the first N views in capture
 order (12 Mpx renders take about a minute each here), --max-image-sizes runs SIFT on the image
 scaled down to that longest side (COLMAP's `max_image_size`; 0 is COLMAP's own, 3200). Each row
-also gives the mean features kept per image and the matching seconds per candidate pair.
+also gives the mean features kept per image (keypoints: SIFT keeps up to two orientations a
+location, so above the budget), the matching seconds per candidate pair and the CPU seconds per
+stage (the figure that swings least with the other engineers' load).
 """
 
 from __future__ import annotations
@@ -78,12 +80,34 @@ def rendered(layout: str, work: Path, resolution: tuple[int, int] | None = None,
     return out
 
 
+class CpuClock:
+    """CPU seconds of this process (all its threads) per stage, from the progress reports: on a
+    shared machine the wall seconds swing with the load, the CPU seconds much less."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+        self._stage, self._since = "", 0.0
+
+    def __call__(self, stage: str, fraction: float) -> None:
+        if stage != self._stage:
+            self.stop()
+            self._stage, self._since = stage, time.process_time()
+
+    def stop(self) -> dict[str, float]:
+        if self._stage:
+            elapsed = time.process_time() - self._since
+            self.seconds[self._stage] = self.seconds.get(self._stage, 0.0) + elapsed
+        self._stage = ""
+        return self.seconds
+
+
 def run_one(images: Path, out: Path, options: SfmOptions) -> dict:
     """One full reconstruction with these options; its figures."""
-    load_before, clock = load(), StageClock()
+    cpu = CpuClock()
+    load_before, clock = load(), StageClock(cpu)
     workspace = Workspace(out)
     workspace.reconstruct(images / "images", RunContext(options, clock))
-    report = clock.report()
+    report, cpu_seconds = clock.report(), cpu.stop()
     status = evaluation.evaluate_workspace(workspace, images / "truth.json")
     stats = workspace.stats()
     keypoints = colmap_db.keypoint_counts(workspace.database).values()
@@ -93,6 +117,7 @@ def run_one(images: Path, out: Path, options: SfmOptions) -> dict:
             "models": stats["num_models"], "wrong": status["num_wrong"],
             "features": round(sum(keypoints) / max(len(keypoints), 1)),
             "stages": {s["stage"]: (s["seconds"], s["peak_mb"]) for s in report["stages"]},
+            "cpu": {stage: round(seconds, 1) for stage, seconds in cpu_seconds.items()},
             "seconds": report["seconds"], "load": f"{load_before} -> {load()}"}
 
 
@@ -159,6 +184,9 @@ def print_rows(rows: list[dict]) -> None:
               f"{r['verified']:6d} {r['registered']:4d} {r['wrong']:5d} {r['models']:3d}  "
               f"{cells[0]:>13} {cells[1]:>13} {cells[2]:>13} {r['seconds']:6.1f} {per_pair:7.1f}"
               f"  {r['load']}{'  (' + r['note'] + ')' if 'note' in r else ''}")
+        if "cpu" in r and "note" not in r:
+            print(f"{'':<9} {'':<10} CPU s (all threads): "
+                  + ", ".join(f"{stage} {seconds:.1f}" for stage, seconds in r["cpu"].items()))
         if "round" in r and "note" not in r:
             print(f"{'':<9} {'':<10} one correction round: {r['round']}")
 

@@ -50,6 +50,22 @@ def test_a_max_image_size_extracts_from_a_smaller_image_in_the_files_pixels(tiny
         SfmOptions(max_image_size=10)
 
 
+def test_extraction_and_matching_report_their_start(tiny_sample, tmp_path):
+    """A stage's clock starts at its first report: one only after the first chunk or block would
+    leave that chunk out of extraction and put that block into it."""
+    images = tmp_path / "images"
+    images.mkdir()
+    for name in sorted(p.name for p in (tiny_sample / "images").iterdir())[:3]:
+        shutil.copy(tiny_sample / "images" / name, images / name)
+    seen = []
+    run = RunContext(TINY_OPTIONS, lambda stage, fraction: seen.append((stage, fraction)))
+    sfm.extract_features(images, tmp_path / "database.db", run)
+    assert seen[0] == ("extract", 0.0) and seen[-1] == ("extract", 1.0)
+    extracted = len(seen)
+    sfm.match_features(tmp_path / "database.db", run)
+    assert seen[extracted] == ("match", 0.0) and seen[-1] == ("match", 1.0)
+
+
 @pytest.mark.parametrize(("images", "matcher"), [(57, "exhaustive"), (300, "exhaustive"),
                                                  (5, "exhaustive"), (300, "sequential")])
 def test_matching_blocks_cover_every_pair_once_and_touch_few_images(images, matcher):

@@ -203,6 +203,7 @@ def extract_features(image_dir: Path, database: Path, run: RunContext = RunConte
     reader.camera_model = options.camera_model
     step = max(MIN_EXTRACT_CHUNK, -(-len(names) // EXTRACT_CHUNKS))
     done = 0
+    run.progress("extract", 0.0)  # the stage starts now, not after its first chunk (stage_clock)
     for size, group in _groups_by_size(image_dir, names).items():
         extraction.sift.max_num_features = options.max_num_features or features_for_size(*size)
         for start in range(0, len(group), step):
@@ -252,7 +253,6 @@ def retrieval_candidates(database: Path, tree: Path, run: RunContext) -> list[tu
     later runs), plus capture-order neighbours and loop closure."""
     image_ids, options = _image_ids_in_order(database), run.options
     if not tree.is_file():
-        run.progress("match", 0.0)
         retrieval.build_tree(database, tree, options.num_threads)
     run.check()
     retrieved = retrieval.retrieved_pairs(database, tree, num_threads=options.num_threads)
@@ -266,6 +266,7 @@ def match_features(database: Path, run: RunContext = RunContext(),
     per-image cameras so the mapper refines one camera per kind of image. Returns the matcher
     used (what `auto` chose); retrieval keeps its tree at `tree` (default: beside the database)."""
     db_names, options = colmap_db.image_names(database), run.options
+    run.progress("match", 0.0)  # before the first block: it is matching's time, not extraction's
     matcher = matcher_for(options.matcher, len(db_names))
     if matcher == "retrieval":
         pairs = retrieval_candidates(database, tree or database.parent / retrieval.TREE_FILE, run)
