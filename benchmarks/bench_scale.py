@@ -16,7 +16,8 @@ With --work the renders are kept and reused; without it everything goes to a tem
 --resolutions renders the layouts at real photo sizes too (the 640x480 camera scaled: same field
 of view; a render per resolution, kept under --work), --views keeps the first N views in capture
 order (12 Mpx renders take about a minute each here), --max-image-sizes runs SIFT on the image
-scaled down to that longest side (COLMAP's `max_image_size`; 0 is COLMAP's own, 3200). Each row
+scaled down to that longest side (COLMAP's `max_image_size`; default the product's, 1600; 0 is
+COLMAP's own, 3200). Each row
 also gives the mean features kept per image (keypoints: SIFT keeps up to two orientations a
 location, so above the budget), the matching seconds per candidate pair and the CPU seconds per
 stage (the figure that swings least with the other engineers' load).
@@ -155,7 +156,7 @@ def measure(layout: str, matchers: list[str], work: Path, round_: bool = True,
         if used in done:
             rows.append({**done[used], "matcher": matcher, "note": f"same run as {used}"})
             continue
-        print(f"{name} ({count} images, max image size {max_image_size or 'COLMAP'}): "
+        print(f"{name} ({count} images, max image size {max_image_size or 'COLMAP 3200'}): "
               f"{matcher} ...", file=sys.stderr, flush=True)
         out = work / f"{name}-{matcher}{f'-max{max_image_size}' if max_image_size else ''}"
         shutil.rmtree(out, ignore_errors=True)  # a kept tree would hide the cost of building one
@@ -191,9 +192,15 @@ def print_rows(rows: list[dict]) -> None:
             print(f"{'':<9} {'':<10} one correction round: {r['round']}")
 
 
-def _same_as_own_size(max_image_size: int, resolution: tuple[int, int] | None) -> bool:
-    """A max size the images are not above runs as COLMAP's own would: not run twice."""
-    return bool(max_image_size) and resolution is not None and max(resolution) <= max_image_size
+def sizes_that_differ(sizes: list[int], resolution: tuple[int, int] | None) -> list[int]:
+    """The max image sizes that give different runs at this resolution: every size at or above
+    the images' longest side leaves them as they are (the same features), so only the first of
+    those runs (at the layout's own camera, whose size is not known here, all run)."""
+    if resolution is None:
+        return sizes
+    binding = [size for size in sizes if 0 < size < max(resolution)]
+    free = [size for size in sizes if size not in binding][:1]
+    return [size for size in sizes if size in binding or size in free]
 
 
 def main() -> None:
@@ -206,9 +213,11 @@ def main() -> None:
                              "field of view; default: its own 640x480)")
     parser.add_argument("--views", type=int, default=None,
                         help="only the first N views in capture order (a slice of the layout)")
-    parser.add_argument("--max-image-sizes", nargs="+", type=int, default=[0],
-                        help="SIFT's longest side, one run each (0: COLMAP's own, 3200); a size "
-                             "at or above a resolution's longest side is skipped there")
+    parser.add_argument("--max-image-sizes", nargs="+", type=int,
+                        default=[sfm.DEFAULT_MAX_IMAGE_SIZE],
+                        help="SIFT's longest side, one run each (default: the product's "
+                             f"{sfm.DEFAULT_MAX_IMAGE_SIZE}; 0: COLMAP's own, 3200); sizes at or "
+                             "above a resolution's longest side run once there")
     parser.add_argument("--no-round", action="store_true", help="skip the correction round")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
@@ -217,7 +226,7 @@ def main() -> None:
         work = Path(args.work or tmp)
         work.mkdir(parents=True, exist_ok=True)
         rows = [row for layout in args.layouts for resolution in args.resolutions
-                for size in args.max_image_sizes if not _same_as_own_size(size, resolution)
+                for size in sizes_that_differ(args.max_image_sizes, resolution)
                 for row in measure(layout, args.matchers, work, not args.no_round, resolution,
                                    args.views, size or None)]
     print_rows(rows)

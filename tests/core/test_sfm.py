@@ -48,6 +48,14 @@ def test_a_max_image_size_extracts_from_a_smaller_image_in_the_files_pixels(tiny
         assert xy[:, 0].max() > 0.75 * width and xy[:, 1].max() > 0.75 * height
     with pytest.raises(InvalidInput, match="max_image_size"):
         SfmOptions(max_image_size=10)
+    # the default leaves images at or below its size as they are: COLMAP's own features
+    assert max(width, height) <= sfm.DEFAULT_MAX_IMAGE_SIZE < 3200
+    default, colmaps = tmp_path / "default.db", tmp_path / "colmap.db"
+    sfm.extract_features(images, default, RunContext(TINY_OPTIONS))  # the default max size
+    sfm.extract_features(images, colmaps, RunContext(replace(TINY_OPTIONS, max_image_size=None)))
+    by_name = [{name: colmap_db.keypoints(db, image_id).tolist()
+                for image_id, name in colmap_db.image_names(db).items()} for db in (default, colmaps)]
+    assert by_name[0] == by_name[1]
 
 
 def test_extraction_and_matching_report_their_start(tiny_sample, tmp_path):
