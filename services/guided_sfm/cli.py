@@ -74,6 +74,8 @@ def _options(args: argparse.Namespace):
     extra = {"num_threads": args.threads} if getattr(args, "threads", None) else {}
     if getattr(args, "placement_prior", None) is not None:
         extra["placement_prior"] = args.placement_prior
+    if getattr(args, "max_image_size", None) is not None:
+        extra["max_image_size"] = args.max_image_size or None
     return SfmOptions(matcher=getattr(args, "matcher", "auto"),
                       mapper=getattr(args, "mapper", "incremental"),
                       features=getattr(args, "features", "standard"), **extra)
@@ -216,7 +218,10 @@ SFM_ARGS = [("--matcher", {"choices": ["auto", "exhaustive", "sequential", "retr
                                     "2x slower (see docs/engine.md)"}),
             ("--placement-prior", {"action": argparse.BooleanOptionalAction, "default": None,
                                    "help": "hold the re-map to the round's placements "
-                                           "(position priors; docs/pruning-rule.md)"})]
+                                           "(position priors; docs/pruning-rule.md)"}),
+            ("--max-image-size", {"type": int, "default": None, "metavar": "PIXELS",
+                                  "help": "SIFT's longest side: larger photos are extracted "
+                                          "scaled down (default 1600; 0: COLMAP's own, 3200)"})]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -114,3 +114,13 @@ def test_a_proposal_is_an_edit_set_prune_takes(tiny_workspace, tmp_path):
     edits.write_text(json.dumps({"cameras": document["runs"][0]["proposal"]["cameras"]}))
     done = run("prune", tiny_workspace, edits, tmp_path / "new", "--dry-run", "--json", check=True)
     assert json.loads(done.stdout.splitlines()[-1])["deleted_pairs"]
+
+
+@pytest.mark.parametrize(("argv", "size"), [([], 1600), (["--max-image-size", "1024"], 1024),
+                                            (["--max-image-size", "0"], None)])
+def test_reconstruct_takes_the_max_image_size(argv, size):
+    from guided_sfm.cli import _options, build_parser
+    from guided_sfm.core.sfm import DEFAULT_MAX_IMAGE_SIZE
+
+    args = build_parser().parse_args(["reconstruct", "images", "workspace", *argv])
+    assert _options(args).max_image_size == size and DEFAULT_MAX_IMAGE_SIZE == 1600

@@ -89,3 +89,32 @@ def test_copies_of_the_repeated_poster_render_identically():
     np.testing.assert_allclose(depth_a[patch], depth_b[patch], rtol=1e-6)
     assert np.abs(rgb_a[patch] - rgb_b[patch]).max() < 1e-3
     assert np.abs(rgb_a[:, :20] - rgb_b[:, :20]).mean() > 0.02  # the walls around them are unique
+
+
+def test_a_scaled_camera_keeps_the_field_of_view():
+    cam = build_layout("hall", seed=0).camera
+    big = cam.scaled(cam.width * 25 // 4, cam.height * 25 // 4)  # 640x480 -> 4000x3000
+    assert (big.width, big.height) == (cam.width * 25 // 4, cam.height * 25 // 4)
+    points = np.random.default_rng(0).uniform([-2, -1.5, 1], [2, 1.5, 6], (50, 3))
+
+    def pixels(c):
+        return np.stack([c.fx * points[:, 0] / points[:, 2] + c.cx,
+                         c.fy * points[:, 1] / points[:, 2] + c.cy], axis=1)
+
+    # the same point lands at the same fraction of the image, corners included
+    np.testing.assert_allclose(pixels(big) / [big.width, big.height],
+                               pixels(cam) / [cam.width, cam.height], rtol=1e-12)
+    with pytest.raises(ValueError, match="aspect ratio"):
+        cam.scaled(4000, 2000)
+
+
+def test_a_slice_at_another_resolution_is_the_same_capture(tiny_sample, tmp_path):
+    truth = json.loads((tiny_sample / "truth.json").read_text())
+    cam = truth["camera"]
+    width, height = cam["width"] * 3 // 2, cam["height"] * 3 // 2
+    out = write_sample(tmp_path / "big", "tiny", seed=0, resolution=(width, height), views=2)
+    big = json.loads((out / "truth.json").read_text())
+    assert big["images"] == truth["images"][:2]
+    assert (big["camera"]["width"], big["camera"]["fx"]) == (width, cam["fx"] * 1.5)
+    assert np.load(out / "depth" / "0001.npy").shape == (height, width)
+    assert sorted(p.name for p in (out / "images").iterdir()) == ["0000.jpg", "0001.jpg"]

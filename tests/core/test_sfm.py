@@ -3,6 +3,7 @@
 import shutil
 import sqlite3
 from contextlib import closing
+from dataclasses import replace
 
 import pycolmap
 import pytest
@@ -29,6 +30,48 @@ def test_feature_budget_follows_the_image_area(size, budget):
 def test_an_explicit_feature_count_is_checked():
     with pytest.raises(InvalidInput, match="max_num_features"):
         SfmOptions(max_num_features=10)
+
+
+def test_a_max_image_size_extracts_from_a_smaller_image_in_the_files_pixels(tiny_sample, tmp_path):
+    images = tmp_path / "images"
+    images.mkdir()
+    for name in sorted(p.name for p in (tiny_sample / "images").iterdir())[:2]:
+        shutil.copy(tiny_sample / "images" / name, images / name)
+    with Image.open(next(images.iterdir())) as img:
+        width, height = img.size
+    full, small = tmp_path / "full.db", tmp_path / "small.db"
+    sfm.extract_features(images, full, RunContext(TINY_OPTIONS))
+    sfm.extract_features(images, small, RunContext(replace(TINY_OPTIONS, max_image_size=width // 2)))
+    assert sum(colmap_db.keypoint_counts(small).values()) < sum(colmap_db.keypoint_counts(full).values())
+    for image_id in colmap_db.image_names(small):  # scaled back to the file's pixels
+        xy = colmap_db.keypoints(small, image_id)
+        assert xy[:, 0].max() > 0.75 * width and xy[:, 1].max() > 0.75 * height
+    with pytest.raises(InvalidInput, match="max_image_size"):
+        SfmOptions(max_image_size=10)
+    # the default leaves images at or below its size as they are: COLMAP's own features
+    assert max(width, height) <= sfm.DEFAULT_MAX_IMAGE_SIZE < 3200
+    default, colmaps = tmp_path / "default.db", tmp_path / "colmap.db"
+    sfm.extract_features(images, default, RunContext(TINY_OPTIONS))  # the default max size
+    sfm.extract_features(images, colmaps, RunContext(replace(TINY_OPTIONS, max_image_size=None)))
+    by_name = [{name: colmap_db.keypoints(db, image_id).tolist()
+                for image_id, name in colmap_db.image_names(db).items()} for db in (default, colmaps)]
+    assert by_name[0] == by_name[1]
+
+
+def test_extraction_and_matching_report_their_start(tiny_sample, tmp_path):
+    """A stage's clock starts at its first report: one only after the first chunk or block would
+    leave that chunk out of extraction and put that block into it."""
+    images = tmp_path / "images"
+    images.mkdir()
+    for name in sorted(p.name for p in (tiny_sample / "images").iterdir())[:3]:
+        shutil.copy(tiny_sample / "images" / name, images / name)
+    seen = []
+    run = RunContext(TINY_OPTIONS, lambda stage, fraction: seen.append((stage, fraction)))
+    sfm.extract_features(images, tmp_path / "database.db", run)
+    assert seen[0] == ("extract", 0.0) and seen[-1] == ("extract", 1.0)
+    extracted = len(seen)
+    sfm.match_features(tmp_path / "database.db", run)
+    assert seen[extracted] == ("match", 0.0) and seen[-1] == ("match", 1.0)
 
 
 @pytest.mark.parametrize(("images", "matcher"), [(57, "exhaustive"), (300, "exhaustive"),

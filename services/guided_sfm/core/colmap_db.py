@@ -88,6 +88,12 @@ def matched_pair_count(path: Path) -> int:
         return conn.execute("SELECT COUNT(*) FROM matches").fetchone()[0]
 
 
+def keypoint_counts(path: Path) -> dict[int, int]:
+    """COLMAP image id -> how many keypoints extraction kept for it."""
+    with read_only(path) as conn:
+        return dict(conn.execute("SELECT image_id, rows FROM keypoints"))
+
+
 def inlier_matches(path: Path, pair: PairKey) -> np.ndarray:
     """(N, 2) keypoint indices of a pair's verified inlier matches, columns in pair order."""
     pair_id = pycolmap.image_pair_to_pair_id(*pair)

@@ -19,10 +19,12 @@ DEFAULT_LAYOUT = "murals"
 
 
 def write_sample(
-    out_dir: Path, layout: str = DEFAULT_LAYOUT, seed: int = 0, progress: Progress = no_progress
+    out_dir: Path, layout: str = DEFAULT_LAYOUT, seed: int = 0, progress: Progress = no_progress,
+    resolution: tuple[int, int] | None = None, views: int | None = None,
 ) -> Path:
-    """Render a layout's images, depth maps and truth.json into out_dir; returns out_dir."""
-    return writer.write_sample(out_dir, layout, seed, progress)
+    """Render a layout's images, depth maps and truth.json into out_dir; returns out_dir.
+    `resolution` scales the layout's camera (same field of view); `views` keeps the first views."""
+    return writer.write_sample(out_dir, layout, seed, progress, resolution, views)
 
 
 __all__ = ["DEFAULT_LAYOUT", "LAYOUTS", "write_sample"]

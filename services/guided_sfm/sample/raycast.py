@@ -23,6 +23,16 @@ class PinholeCamera:
     def to_dict(self) -> dict[str, object]:
         return {"model": "PINHOLE", **self.__dict__}
 
+    def scaled(self, width: int, height: int) -> PinholeCamera:
+        """The same camera at another resolution: the same field of view, every intrinsic scaled
+        (exact with the top-left corner convention). The aspect ratio must stay, or the pixels
+        would no longer be square."""
+        if width < 1 or height < 1 or width * self.height != height * self.width:
+            raise ValueError(f"{width}x{height} does not keep the {self.width}x{self.height} "
+                             "camera's aspect ratio")
+        s = width / self.width
+        return PinholeCamera(width, height, self.fx * s, self.fy * s, self.cx * s, self.cy * s)
+
 
 @dataclass(frozen=True)
 class Quad:

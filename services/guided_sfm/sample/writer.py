@@ -32,9 +32,19 @@ def to_photo(rgb: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
 
-def write_sample(out_dir: Path, layout: str, seed: int = 0, progress: Progress = no_progress) -> Path:
-    """Render every view of a layout into out_dir (images/, depth/, truth.json); returns out_dir."""
+def write_sample(out_dir: Path, layout: str, seed: int = 0, progress: Progress = no_progress,
+                 resolution: tuple[int, int] | None = None, views: int | None = None) -> Path:
+    """Render every view of a layout into out_dir (images/, depth/, truth.json); returns out_dir.
+
+    `resolution` (width, height) renders with the layout's camera scaled to it (the same field of
+    view); `views` renders only the first that many views in capture order. Each view is seeded by
+    its rank, so a slice's images are the whole layout's first images.
+    """
     spec = build_layout(layout, seed)
+    if resolution is not None:
+        spec.camera = spec.camera.scaled(*resolution)
+    if views is not None:
+        spec.poses = spec.poses[:views]
     out_dir = Path(out_dir)
     (out_dir / "images").mkdir(parents=True, exist_ok=True)
     (out_dir / "depth").mkdir(exist_ok=True)
