@@ -88,12 +88,6 @@ def matched_pair_count(path: Path) -> int:
         return conn.execute("SELECT COUNT(*) FROM matches").fetchone()[0]
 
 
-def keypoint_counts(path: Path) -> dict[int, int]:
-    """COLMAP image id -> how many keypoints extraction kept for it."""
-    with read_only(path) as conn:
-        return dict(conn.execute("SELECT image_id, rows FROM keypoints"))
-
-
 def inlier_matches(path: Path, pair: PairKey) -> np.ndarray:
     """(N, 2) keypoint indices of a pair's verified inlier matches, columns in pair order."""
     pair_id = pycolmap.image_pair_to_pair_id(*pair)
@@ -131,8 +125,12 @@ def inlier_matches_of(path: Path, pairs: Iterable[PairKey]) -> dict[PairKey, np.
     return found
 
 
-def keypoint_counts(path: Path, image_ids: Iterable[int]) -> dict[int, int]:
-    """How many keypoints the database lists for each of these images (those it has any for)."""
+def keypoint_counts(path: Path, image_ids: Iterable[int] | None = None) -> dict[int, int]:
+    """COLMAP image id -> how many keypoints the database lists for it, for these images (those
+    it has any for) or, without image_ids, for every image."""
+    if image_ids is None:
+        with read_only(path) as conn:
+            return dict(conn.execute("SELECT image_id, rows FROM keypoints"))
     wanted, found = sorted(set(image_ids)), {}
     with read_only(path) as conn:
         for start in range(0, len(wanted), SQL_CHUNK):
