@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import shutil
 import statistics
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -39,6 +40,9 @@ from guided_sfm.core.sfm import set_colmap_verbosity
 from guided_sfm.core.truth import load_truth
 from guided_sfm.core.types import EditSet
 from guided_sfm.core.workspace import Workspace
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from synthetic_workspace import write_workspace  # noqa: E402
 
 TARGETS = {"layout": 1.8, "synthetic": 5.0}
 MAX_MAE_GAP_DEG = 0.1
@@ -143,6 +147,30 @@ def synthetic_scene(size: int, runs: int, root: Path, moved_count: int = 3,
     base = sfm.map_database(database, root / "images", root / "base")
     ids = sorted(base[0].reg_image_ids())
     moved = moved_ids(ids, moved_count, moved_run)
+    return {"scene": f"synthetic {size}", "images": size, "moved": len(moved),
+            **_warm_and_cold(database, root, base, moved, runs, colmap_model.camera_poses(truth_model))}
+
+
+def hall_scene(size: int, runs: int, root: Path, moved_count: int = 50,
+               moved_run: bool = False) -> dict:
+    """benchmarks/synthetic_workspace.py's walked hall of `size` cameras (200 model points per
+    camera, 30 capture-order partners each): its model is the truth and the base (the editor's
+    1,000-camera scene, issue 22); then `moved_count` cameras are edited."""
+    write_workspace(root / "ws", cameras=size, points=200 * size)
+    workspace = Workspace(root / "ws")
+    base = workspace.load_models()[0]
+    for point_id in [i for i, point in base.points3D.items() if point.track.length() < 2]:
+        base.delete_point3D(point_id)  # points no two cameras see: bundle adjustment refuses them
+    moved = moved_ids(sorted(base.reg_image_ids()), moved_count, moved_run)
+    return {"scene": f"synthetic hall {size}", "images": size, "moved": len(moved),
+            **_warm_and_cold(workspace.database, root, [base], moved, runs,
+                             colmap_model.camera_poses(base))}
+
+
+def _warm_and_cold(database: Path, root: Path, base: list, moved: set[int], runs: int,
+                   truth: dict) -> dict:
+    """The database mapped cold and warm (from base without the moved images), interleaved."""
+    (root / "images").mkdir(exist_ok=True)  # no pixels: mapping reads keypoints and matches only
 
     def run(mode: str) -> tuple[float, list, remap.MapReport]:
         shutil.rmtree(root / "run", ignore_errors=True)
@@ -151,9 +179,7 @@ def synthetic_scene(size: int, runs: int, root: Path, moved_count: int = 3,
                                                 cold=mode == "cold")
         return time.perf_counter() - start, models, report
 
-    moved_names = [base[0].image(i).name for i in moved]
-    return {"scene": f"synthetic {size}", "images": size, "moved": len(moved),
-            **interleaved(runs, run, colmap_model.camera_poses(truth_model), moved_names)}
+    return interleaved(runs, run, truth, [base[0].image(i).name for i in moved])
 
 
 def print_header(runs: int) -> None:
@@ -194,6 +220,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     parser.add_argument("--layouts", default="murals,office,twins,orbit")
     parser.add_argument("--sizes", default="150,300")
+    parser.add_argument("--halls", default="",
+                        help="sizes of synthetic_workspace.py's hall, e.g. 1000 (none by default)")
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--moved", type=int, default=3,
                         help="cameras the synthetic scenes' edit moves (spread evenly)")
@@ -212,6 +240,10 @@ def main() -> None:
     for size in (int(s) for s in filter(None, args.sizes.split(","))):
         with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
             rows.append(synthetic_scene(size, args.runs, Path(tmp), args.moved, args.moved_run))
+        print_row(rows[-1])
+    for size in (int(s) for s in filter(None, args.halls.split(","))):
+        with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
+            rows.append(hall_scene(size, args.runs, Path(tmp), args.moved, args.moved_run))
         print_row(rows[-1])
     print_checks(rows)
 
