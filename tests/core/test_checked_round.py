@@ -5,10 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from guided_sfm.core import checked_round
 from guided_sfm.core.checked_round import CHECK_SIGMAS, anchors, far_from_placement, in_frame
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, SceneCamera, TopDownScene
-from guided_sfm.core.workspace import PruneOutcome
 
 from .synthetic import FRAME
 
@@ -51,41 +49,3 @@ def test_only_unmoved_registered_cameras_anchor_the_check():
     scene.cameras[3] = dataclasses.replace(scene.cameras[3], x=None, y=None)
     edits = EditSet([CameraEdit(1, 0.0, 0.0, 0.0)])
     assert anchors(scene, edits) == 2  # 2 and 3: camera 1 moved, 4 not registered
-
-
-class _PassRecorder:
-    """A stand-in workspace of `count` images (6 registered) that records the images each map
-    pass was told to map again."""
-
-    def __init__(self, count: int) -> None:
-        self.count, self.touched = count, []
-        cameras = [_camera(i, float(i), 0.0) for i in range(1, 7)]
-        self._scene = TopDownScene(FRAME, cameras, np.zeros((0, 2)))
-
-    def scene(self):
-        return self._scene
-
-    def image_ids(self):
-        return {f"{i:04d}.jpg": i for i in range(1, self.count + 1)}
-
-    def map_again(self, run, image_dir=None, cold=False, touched=None):
-        self.touched.append(touched)
-
-    def preview(self, edits):
-        return PruneOutcome(deleted=[(1, 7)], reasons={(1, 7): ("check",)}, kept_to_connect=[],
-                            components_before=1, components_after=1)
-
-
-@pytest.mark.parametrize(("count", "second_pass"), [(101, frozenset({1, 7})), (100, None)])
-def test_a_large_projects_check_pass_maps_only_the_far_cameras_again(monkeypatch, count,
-                                                                      second_pass):
-    monkeypatch.setattr(checked_round, "_delete_in_place", lambda ws, pairs: None)
-    monkeypatch.setattr(checked_round, "_record", lambda ws, pairs: None)
-    far_once = iter([[CameraEdit(1, 9.0, 0.0, 0.0)], []])  # after the first map, then the check
-    monkeypatch.setattr(checked_round, "far_from_placement", lambda *args: next(far_once))
-    ws = _PassRecorder(count)
-    edits = EditSet([CameraEdit(1, 9.0, 0.0, 0.0), CameraEdit(2, 2.0, 0.0, 0.0)])
-    checked_round.map_checked(ws, edits)
-    # the first pass maps every placed camera again (edits.json: touched None); the check pass
-    # of a large project only the far camera and its deleted pair's other end
-    assert ws.touched == [None, second_pass]

@@ -19,7 +19,7 @@ import numpy as np
 from guided_sfm.core import colmap_db
 from guided_sfm.core.remap import MapReport
 from guided_sfm.core.rule.tolerances import Tolerances
-from guided_sfm.core.sfm import LARGE_MAP_ABOVE_IMAGES, RunContext
+from guided_sfm.core.sfm import RunContext
 from guided_sfm.core.types import CameraEdit, EditSet, GroundFrame, PairKey, TopDownScene
 from guided_sfm.core.workspace import Workspace
 
@@ -65,19 +65,6 @@ def anchors(scene: TopDownScene, edits: EditSet) -> int:
     return sum(1 for c in scene.cameras if c.x is not None and c.image_id not in moved)
 
 
-def check_touched(far: list[CameraEdit], deleted: list[PairKey],
-                  num_images: int) -> frozenset[int] | None:
-    """The images a check pass of a large project maps again: the far cameras and both ends of
-    the pairs it deleted. The other placed cameras already sit where the pass before put them
-    (near their placements), so they stay in the warm start, and with few touched the rest are
-    held fixed: on hall-300 a pass that re-registered every placed camera cost as much as the
-    round's first map (docs/engine.md "Edits at 1,000 cameras"). None (every placed camera
-    again, as before) up to sfm.LARGE_MAP_ABOVE_IMAGES images: the small captures' figures stand."""
-    if num_images <= LARGE_MAP_ABOVE_IMAGES:
-        return None
-    return frozenset({c.image_id for c in far} | {i for pair in deleted for i in pair})
-
-
 def _delete_in_place(ws: Workspace, pairs: list[PairKey]) -> None:
     staging = ws.database.with_suffix(".check")
     colmap_db.copy_without_pairs(ws.database, staging, pairs)
@@ -89,8 +76,7 @@ def map_checked(ws: Workspace, edits: EditSet, run: RunContext = RunContext(),
                 ) -> tuple[MapReport, list[PairKey]]:
     """Map a pruned workspace again (Workspace.map_again), then up to CHECK_PASSES times: judge
     the pairs of the moved cameras that landed far from their placements on the new model,
-    delete what the rule removes and map again, warm from the new model without the far
-    cameras and the deleted pairs' ends (check_touched). Returns the last map's report and the pairs the
+    delete what the rule removes and map again. Returns the last map's report and the pairs the
     checks deleted (also added to pruning.json with the reason `check`)."""
     frame = ws.scene().frame  # the base's frame: the new workspace starts with its scene
     report = ws.map_again(run, image_dir, cold=cold)
@@ -109,8 +95,7 @@ def map_checked(ws: Workspace, edits: EditSet, run: RunContext = RunContext(),
             break
         _delete_in_place(ws, outcome.deleted)
         checked.extend(outcome.deleted)
-        report = ws.map_again(run, image_dir, cold=cold,
-                              touched=check_touched(far, outcome.deleted, len(ws.image_ids())))
+        report = ws.map_again(run, image_dir, cold=cold)
     if checked:
         _record(ws, checked)
     return report, sorted(checked)
