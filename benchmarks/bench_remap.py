@@ -1,7 +1,8 @@
 """Warm against cold re-mapping after a correction, timed side by side.
 
 Run: .venv/bin/python benchmarks/bench_remap.py [--layouts murals,office,twins,orbit]
-                                                [--sizes 150,300] [--runs 3] [--moved 3]
+                                                [--sizes 150,300] [--halls 1000] [--runs 3]
+                                                [--moved 3] [--moved-run]
 
 - Sample layouts: render, reconstruct, let the demo's simulated user place the wrong cameras
   (default rule), prune once; then map the pruned workspace cold and warm, interleaved
@@ -11,6 +12,11 @@ Run: .venv/bin/python benchmarks/bench_remap.py [--layouts murals,office,twins,o
   (3: at the quartiles; 50 of 1,000: the issue's 5%), or a run of consecutive ids with
   --moved-run (a fold is a run of the capture); their pairs are kept (nothing to prune); then the
   database is mapped cold and warm (from the base without the moved ones), interleaved.
+  (synthesize_dataset at 1,000 images ran for over 6 CPU minutes without finishing: at that
+  size use --halls.)
+- Synthetic halls (--halls N, none by default): benchmarks/synthetic_workspace.py's walked hall
+  of N cameras, its model the truth and the base version; then as the synthetic scenes (the
+  issue's figure: --halls 1000 --moved 50 --moved-run).
 Per scene: median seconds of each, the ratio, the registered count and models of both, and the
 median rotation MAE (deg) of the moved cameras against the truth for both. With --prior, sample
 layouts are also mapped warm with the round's placements as position priors (SfmOptions.
