@@ -22,8 +22,9 @@ log = logging.getLogger(__name__)
 FIX_EXISTING_SHARE = 0.1
 # ... unless the untouched are more than a small project's whole capture: then they are a map of
 # their own that the edit did not question. On hall-300's round (137 of 294 placed) refining
-# them let the re-registered leg pull them back into the fold: 41 of 137 fixed side by side
-# against 137 with them fixed, in about half the CPU (docs/engine.md "Edits at 1,000 cameras").
+# them let the re-registered leg pull them back into the fold in 2 of 3 runs (40, 41, 137 of
+# 137 fixed); held fixed, 137 in all 5 runs, with 2-3x less CPU (docs/engine.md "Edits at
+# 1,000 cameras").
 # Small projects (<= 100 images) never reach it: their path is unchanged.
 FIX_EXISTING_ABOVE_UNTOUCHED = sfm.LARGE_MAP_ABOVE_IMAGES
 # The warm result is rejected when its mean reprojection error grows beyond both of these.
