@@ -1,14 +1,22 @@
 """Warm against cold re-mapping after a correction, timed side by side.
 
 Run: .venv/bin/python benchmarks/bench_remap.py [--layouts murals,office,twins,orbit]
-                                                [--sizes 150,300] [--runs 3]
+                                                [--sizes 150,300] [--halls 1000] [--runs 3]
+                                                [--moved 3] [--moved-run]
 
 - Sample layouts: render, reconstruct, let the demo's simulated user place the wrong cameras
   (default rule), prune once; then map the pruned workspace cold and warm, interleaved
   (cold, warm, cold, warm, ...), each run on a fresh copy made outside the timed region.
 - Synthetic scenes (pycolmap.synthesize_dataset, N images, each matched with ~30 others): a
-  cold map is the base version; the edit moves 3 cameras (their pairs are kept: nothing to
-  prune), then the database is mapped cold and warm (from the base without those 3), interleaved.
+  cold map is the base version; the edit moves --moved cameras, spread evenly over the image ids
+  (3: at the quartiles; 50 of 1,000: the issue's 5%), or a run of consecutive ids with
+  --moved-run (a fold is a run of the capture); their pairs are kept (nothing to prune); then the
+  database is mapped cold and warm (from the base without the moved ones), interleaved.
+  (synthesize_dataset at 1,000 images ran for over 6 CPU minutes without finishing: at that
+  size use --halls.)
+- Synthetic halls (--halls N, none by default): benchmarks/synthetic_workspace.py's walked hall
+  of N cameras, its model the truth and the base version; then as the synthetic scenes (the
+  issue's figure: --halls 1000 --moved 50 --moved-run).
 Per scene: median seconds of each, the ratio, the registered count and models of both, and the
 median rotation MAE (deg) of the moved cameras against the truth for both. With --prior, sample
 layouts are also mapped warm with the round's placements as position priors (SfmOptions.
@@ -22,6 +30,7 @@ from __future__ import annotations
 import argparse
 import shutil
 import statistics
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -37,6 +46,9 @@ from guided_sfm.core.sfm import set_colmap_verbosity
 from guided_sfm.core.truth import load_truth
 from guided_sfm.core.types import EditSet
 from guided_sfm.core.workspace import Workspace
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from synthetic_workspace import write_workspace  # noqa: E402
 
 TARGETS = {"layout": 1.8, "synthetic": 5.0}
 MAX_MAE_GAP_DEG = 0.1
@@ -113,8 +125,19 @@ def layout_scene(layout: str, runs: int, root: Path, prior: bool = False) -> dic
             **interleaved(runs, run, truth_poses, moved_names, modes)}
 
 
-def synthetic_scene(size: int, runs: int, root: Path) -> dict:
-    """A synthesized walk of `size` images: its cold map is the base, then 3 cameras are edited."""
+def moved_ids(ids: list[int], count: int, run: bool) -> set[int]:
+    """`count` of the ids: spread evenly (3 of them: at the quartiles), or consecutive ones from
+    the first quarter on when `run`."""
+    if run:
+        start = len(ids) // 4
+        return set(ids[start : start + count])
+    return {ids[k * len(ids) // (count + 1)] for k in range(1, count + 1)}
+
+
+def synthetic_scene(size: int, runs: int, root: Path, moved_count: int = 3,
+                    moved_run: bool = False) -> dict:
+    """A synthesized walk of `size` images: its cold map is the base, then `moved_count` cameras
+    are edited."""
     pycolmap.set_random_seed(0)
     # ~30 matched partners per image (SPARSE drops the rest at random) and 600 points: a 150-image
     # database of ~35 MB; every pair matched with every point wrote 1.5 GB.
@@ -129,7 +152,31 @@ def synthetic_scene(size: int, runs: int, root: Path) -> dict:
     (root / "images").mkdir()  # no pixels: mapping reads keypoints and matches only
     base = sfm.map_database(database, root / "images", root / "base")
     ids = sorted(base[0].reg_image_ids())
-    moved = {ids[len(ids) // 4], ids[len(ids) // 2], ids[3 * len(ids) // 4]}
+    moved = moved_ids(ids, moved_count, moved_run)
+    return {"scene": f"synthetic {size}", "images": size, "moved": len(moved),
+            **_warm_and_cold(database, root, base, moved, runs, colmap_model.camera_poses(truth_model))}
+
+
+def hall_scene(size: int, runs: int, root: Path, moved_count: int = 50,
+               moved_run: bool = False) -> dict:
+    """benchmarks/synthetic_workspace.py's walked hall of `size` cameras (200 model points per
+    camera, 30 capture-order partners each): its model is the truth and the base (the editor's
+    1,000-camera scene, issue 22); then `moved_count` cameras are edited."""
+    write_workspace(root / "ws", cameras=size, points=200 * size)
+    workspace = Workspace(root / "ws")
+    base = workspace.load_models()[0]
+    for point_id in [i for i, point in base.points3D.items() if point.track.length() < 2]:
+        base.delete_point3D(point_id)  # points no two cameras see: bundle adjustment refuses them
+    moved = moved_ids(sorted(base.reg_image_ids()), moved_count, moved_run)
+    return {"scene": f"synthetic hall {size}", "images": size, "moved": len(moved),
+            **_warm_and_cold(workspace.database, root, [base], moved, runs,
+                             colmap_model.camera_poses(base))}
+
+
+def _warm_and_cold(database: Path, root: Path, base: list, moved: set[int], runs: int,
+                   truth: dict) -> dict:
+    """The database mapped cold and warm (from base without the moved images), interleaved."""
+    (root / "images").mkdir(exist_ok=True)  # no pixels: mapping reads keypoints and matches only
 
     def run(mode: str) -> tuple[float, list, remap.MapReport]:
         shutil.rmtree(root / "run", ignore_errors=True)
@@ -138,9 +185,7 @@ def synthetic_scene(size: int, runs: int, root: Path) -> dict:
                                                 cold=mode == "cold")
         return time.perf_counter() - start, models, report
 
-    moved_names = [base[0].image(i).name for i in moved]
-    return {"scene": f"synthetic {size}", "images": size, "moved": len(moved),
-            **interleaved(runs, run, colmap_model.camera_poses(truth_model), moved_names)}
+    return interleaved(runs, run, truth, [base[0].image(i).name for i in moved])
 
 
 def print_header(runs: int) -> None:
@@ -181,7 +226,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     parser.add_argument("--layouts", default="murals,office,twins,orbit")
     parser.add_argument("--sizes", default="150,300")
+    parser.add_argument("--halls", default="",
+                        help="sizes of synthetic_workspace.py's hall, e.g. 1000 (none by default)")
     parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--moved", type=int, default=3,
+                        help="cameras the synthetic scenes' edit moves (spread evenly)")
+    parser.add_argument("--moved-run", action="store_true",
+                        help="move a run of consecutive images instead")
     parser.add_argument("--prior", action="store_true",
                         help="also map the layouts warm held to the placements' priors")
     args = parser.parse_args()
@@ -194,7 +245,11 @@ def main() -> None:
         print_row(rows[-1])
     for size in (int(s) for s in filter(None, args.sizes.split(","))):
         with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
-            rows.append(synthetic_scene(size, args.runs, Path(tmp)))
+            rows.append(synthetic_scene(size, args.runs, Path(tmp), args.moved, args.moved_run))
+        print_row(rows[-1])
+    for size in (int(s) for s in filter(None, args.halls.split(","))):
+        with tempfile.TemporaryDirectory(prefix="bench-remap-") as tmp:
+            rows.append(hall_scene(size, args.runs, Path(tmp), args.moved, args.moved_run))
         print_row(rows[-1])
     print_checks(rows)
 

@@ -95,3 +95,28 @@ def test_cancelled_warm_remap_leaves_the_workspace_untouched(tiny_workspace, tmp
     assert digest == {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
                       for p in new.model_dir().iterdir()}
     assert not (new.root / "sparse.new").exists()
+
+
+class _Registered:
+    """A stand-in base model: only the registered images matter to the decision."""
+
+    def __init__(self, count: int) -> None:
+        self.ids = list(range(1, count + 1))
+
+    def reg_image_ids(self):
+        return self.ids
+
+    def num_reg_images(self):
+        return len(self.ids)
+
+
+@pytest.mark.parametrize(("registered", "touched", "fixed"), [
+    (48, 4, True),  # few touched (<= 10%)
+    (48, 25, False),  # a small project with many touched: the rest are refined (unchanged)
+    (100, 50, False),  # 50 untouched: not more than a small project's capture
+    (294, 137, True),  # hall-300's round: 157 untouched, a map of their own
+    (294, 200, False),  # 94 untouched
+])
+def test_untouched_cameras_are_held_fixed_when_few_are_touched_or_many_are_not(
+        registered, touched, fixed):
+    assert remap.holds_untouched_fixed(_Registered(registered), set(range(1, touched + 1))) is fixed

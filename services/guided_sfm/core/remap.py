@@ -20,6 +20,13 @@ log = logging.getLogger(__name__)
 # Keeping the untouched cameras fixed is what makes a warm start fast; when many are touched,
 # the rest were likely bent by the same false matches, so they are refined too.
 FIX_EXISTING_SHARE = 0.1
+# ... unless the untouched are more than a small project's whole capture: then they are a map of
+# their own that the edit did not question. On hall-300's round (137 of 294 placed) refining
+# them let the re-registered leg pull them back into the fold in 2 of 3 runs (40, 41, 137 of
+# 137 fixed); held fixed, 137 in all 5 runs, with 2-3x less CPU (docs/engine.md "Edits at
+# 1,000 cameras").
+# Small projects (<= 100 images) never reach it: their path is unchanged.
+FIX_EXISTING_ABOVE_UNTOUCHED = sfm.LARGE_MAP_ABOVE_IMAGES
 # The warm result is rejected when its mean reprojection error grows beyond both of these.
 MAX_ERROR_RATIO, MAX_ERROR_GAIN_PX = 1.5, 0.5
 
@@ -67,13 +74,21 @@ def warm_result_problem(base: pycolmap.Reconstruction, models: list[pycolmap.Rec
     return None
 
 
+def holds_untouched_fixed(base: pycolmap.Reconstruction, touched: set[int]) -> bool:
+    """Whether a warm start from base keeps the cameras the round did not touch fixed: when few
+    are touched (FIX_EXISTING_SHARE), or when the untouched are many (FIX_EXISTING_ABOVE_UNTOUCHED)."""
+    untouched = len(set(base.reg_image_ids()) - touched)
+    return (len(touched) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
+            or untouched > FIX_EXISTING_ABOVE_UNTOUCHED)
+
+
 def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
               touched: set[int], run: RunContext, keep_fixed: bool = False
               ) -> tuple[list | None, str | None]:
     """(models, why they are worse than the base or None) of a map from base_models[0] without
     the touched images; (None, why) when it registered nothing."""
     base = base_models[0]
-    fix = keep_fixed or len(touched) <= FIX_EXISTING_SHARE * max(1, base.num_reg_images())
+    fix = keep_fixed or holds_untouched_fixed(base, touched)
     with tempfile.TemporaryDirectory() as tmp:
         without_images(base, touched).write_binary(tmp)
         try:
