@@ -35,7 +35,15 @@ from guided_sfm.core.rule import driver, evidence, separates
 from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.sfm import RunContext
-from guided_sfm.core.types import DEFAULT_RULE, EditSet, PairKey, Progress, PruneResult, TopDownScene
+from guided_sfm.core.types import (
+    DEFAULT_RULE,
+    CameraEdit,
+    EditSet,
+    PairKey,
+    Progress,
+    PruneResult,
+    TopDownScene,
+)
 
 DATABASE, SPARSE, SCENE, META = "database.db", "sparse", "scene.json", "workspace.json"
 EDITS, PRUNING, JOINED = "edits.json", "pruning.json", "joined.json"
@@ -211,7 +219,8 @@ class Workspace:
         try:
             models, report = remap.map_warm_or_cold(database, image_dir or self.image_dir(), staging,
                                                     base_models, touched, run, cold,
-                                                    keep_fixed=(self.root / JOINED).is_file())
+                                                    keep_fixed=(self.root / JOINED).is_file(),
+                                                    **self._placed(base_models))
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
             raise
@@ -224,6 +233,15 @@ class Workspace:
         staging.rename(self.sparse)
         self.write_scene()
         return report
+
+    def _placed(self, base_models: list) -> dict:
+        """The round's placements and the scene frame they are in (the base's scene.json, copied
+        by prune), for the re-map to join what the matches cannot; {} when none."""
+        if not base_models or not self.edits_file.is_file() or not self.scene_file.is_file():
+            return {}
+        cameras = json.loads(self.edits_file.read_text()).get("cameras", [])
+        placements = [CameraEdit(c["image_id"], c["x"], c["y"], c["yaw_deg"]) for c in cameras]
+        return {"placements": placements, "frame": self.scene().frame} if placements else {}
 
     def preview(self, edits: EditSet) -> PruneOutcome:
         """What pruning this workspace with these edits would delete; nothing is written."""
