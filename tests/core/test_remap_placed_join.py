@@ -92,3 +92,41 @@ def test_without_placements_a_split_re_map_is_rejected_as_before(scene_and_model
     out, report = remap.map_warm_or_cold(tmp_path / "db", tmp_path, tmp_path / "sparse", base,
                                          {i for _, i, _, _ in OTHER}, keep_fixed=True)
     assert report.mode == "cold" and report.fallback is not None and len(out) == 2
+
+
+def test_every_re_map_of_a_round_joins_by_the_base_frame(tiny_workspace, tmp_path, monkeypatch):
+    # map_checked maps again after the first re-map rewrote scene.json in the new model's frame;
+    # the placements stay in the base's
+    from guided_sfm.core.sfm import RunContext
+    from guided_sfm.core.types import EditSet
+    from guided_sfm.core.workspace import Workspace
+
+    from .conftest import TINY_OPTIONS
+
+    base = Workspace(tiny_workspace)
+    camera = [c for c in base.scene().cameras if c.registered][2]
+    edits = EditSet([CameraEdit(camera.image_id, camera.x + 0.1, camera.y, camera.yaw_deg)],
+                    rule="paper")
+    new = Workspace(tmp_path / "next")
+    base.prune(edits, new)
+    seen, real = [], remap.map_warm_or_cold
+
+    def recording(*args, **kwargs):
+        seen.append((kwargs.get("placements"), kwargs.get("frame")))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(remap, "map_warm_or_cold", recording)
+    new.map_again(RunContext(TINY_OPTIONS))
+    new.map_again(RunContext(TINY_OPTIONS))
+    assert len(seen) == 2
+    # the premise: the re-mapped scene's frame is not the base's
+    assert not np.allclose(new.scene().frame.origin, base.scene().frame.origin, atol=0.1)
+    for placed, frame in seen:
+        assert placed == edits.cameras
+        np.testing.assert_allclose(frame.origin, base.scene().frame.origin)
+        np.testing.assert_allclose(frame.x_axis, base.scene().frame.x_axis)
+    # nothing placed: nothing passed, the re-map as before
+    only_pairs = Workspace(tmp_path / "pairs")
+    base.prune(EditSet([], rule="paper"), only_pairs)
+    only_pairs.map_again(RunContext(TINY_OPTIONS))
+    assert seen[-1] == (None, None)

@@ -72,6 +72,8 @@ class Placed:
         joined = join_groups.join_placed_after_map(models, base[0], touched,
                                                    list(self.placements), self.frame)
         if joined is not models:
+            log.info("Joined by the placements after the map: %d model(s) -> %d, %d images in the "
+                     "largest", len(models), len(joined), joined[0].num_reg_images())
             sfm.write_models(joined, sparse_dir)
         return joined
 

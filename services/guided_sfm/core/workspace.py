@@ -39,6 +39,7 @@ from guided_sfm.core.types import (
     DEFAULT_RULE,
     CameraEdit,
     EditSet,
+    GroundFrame,
     PairKey,
     Progress,
     PruneResult,
@@ -235,13 +236,19 @@ class Workspace:
         return report
 
     def _placed(self, base_models: list) -> dict:
-        """The round's placements and the scene frame they are in (the base's scene.json, copied
-        by prune), for the re-map to join what the matches cannot; {} when none."""
-        if not base_models or not self.edits_file.is_file() or not self.scene_file.is_file():
+        """The round's placements and the base's scene frame they are in (edits.json), for the
+        re-map to join what the matches cannot; {} when none (or an edits.json from before the
+        frame was recorded). Not this workspace's scene.json: a re-map rewrites it in the frame
+        of the new model, and map_checked maps again."""
+        if not base_models or not self.edits_file.is_file():
             return {}
-        cameras = json.loads(self.edits_file.read_text()).get("cameras", [])
-        placements = [CameraEdit(c["image_id"], c["x"], c["y"], c["yaw_deg"]) for c in cameras]
-        return {"placements": placements, "frame": self.scene().frame} if placements else {}
+        edits = json.loads(self.edits_file.read_text())
+        cameras = edits.get("cameras", [])
+        if not cameras or "frame" not in edits:
+            return {}
+        return {"placements": [CameraEdit(c["image_id"], c["x"], c["y"], c["yaw_deg"])
+                               for c in cameras],
+                "frame": GroundFrame.from_dict(edits["frame"])}
 
     def preview(self, edits: EditSet) -> PruneOutcome:
         """What pruning this workspace with these edits would delete; nothing is written."""
@@ -273,9 +280,13 @@ class Workspace:
         colmap_db.copy_without_pairs(self.require(), new.database, outcome.deleted)
         colmap_db.write_position_priors(new.database, self.placement_priors(edits))
         self._copy_models_to(new)
-        new.join_placed_groups(edits, self.scene().frame)
+        frame = self.scene().frame
+        new.join_placed_groups(edits, frame)
         new.write_meta({**self.read_meta(), "parent": str(self.root.resolve())})
-        new.edits_file.write_text(json.dumps(edits_to_json(edits), indent=2))
+        # the frame the placements are in, for the re-map's join (_placed)
+        record = {**edits_to_json(edits), "frame": frame.to_dict()} if edits.cameras \
+            else edits_to_json(edits)
+        new.edits_file.write_text(json.dumps(record, indent=2))
         record = pruning_record(outcome, new.image_names())
         new.pruning_file.write_text(json.dumps(record, indent=2))
         return outcome
