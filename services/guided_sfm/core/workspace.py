@@ -284,9 +284,10 @@ class Workspace:
         new.join_placed_groups(edits, frame)
         new.write_meta({**self.read_meta(), "parent": str(self.root.resolve())})
         # the frame the placements are in, for the re-map's join (_placed)
-        record = {**edits_to_json(edits), "frame": frame.to_dict()} if edits.cameras \
-            else edits_to_json(edits)
-        new.edits_file.write_text(json.dumps(record, indent=2))
+        edits_record = edits_to_json(edits)
+        if edits.cameras:
+            edits_record["frame"] = frame.to_dict()
+        new.edits_file.write_text(json.dumps(edits_record, indent=2))
         record = pruning_record(outcome, new.image_names())
         new.pruning_file.write_text(json.dumps(record, indent=2))
         return outcome
