@@ -92,3 +92,33 @@ def test_the_split_layout_joins_with_one_group_move(tmp_path):
     assert first["num_models"] >= 2, "COLMAP must split the layout"
     assert summary["final_models"] == 1 and summary["drags"] == first["num_models"] - 1
     assert summary["final_wrong"] == 0 and summary["fixed"] >= 0.8 * summary["initially_unregistered"]
+
+
+@pytest.mark.slow
+def test_the_split_layout_joins_again_after_the_re_map_when_every_camera_is_placed(
+        tmp_path, monkeypatch):
+    # hall-1000's round in small: the user drags the split-off leg and places every camera of
+    # the largest too, so the warm start is the dragged leg alone and the largest's cameras,
+    # with no match to it, are mapped as a model of their own; their placements join them
+    from guided_sfm import demo
+    from guided_sfm.core import simulated_user
+
+    real_place = demo._place
+
+    def group_and_largest(user, base, truth, targets, status, seed):
+        moved, actions = real_place("group", base, truth, targets, status, seed)
+        dragged = {c.image_id for c in moved}
+        largest = [c.name for c in base.scene().cameras
+                   if c.registered and c.image_id not in dragged and c.name in truth.cameras]
+        placed = simulated_user.place_cameras(base.scene(), truth, largest,
+                                              status.truth_from_model, seed)
+        return moved + placed, actions
+
+    monkeypatch.setattr(demo, "_place", group_and_largest)
+    result = run_demo(layout="split", rounds=1, out_dir=tmp_path, user="group")
+    first, mapped, summary = result["rounds"][0], result["rounds"][1], result["summary"]
+    assert first["num_models"] >= 2, "COLMAP must split the layout"
+    assert mapped["num_moved"] > first["num_registered"]  # both legs placed
+    assert (mapped["map_mode"], mapped["map_fallback"]) == ("warm", None)
+    assert summary["final_models"] == 1 and summary["final_wrong"] == 0
+    assert mapped["num_registered"] > first["num_registered"]

@@ -126,6 +126,51 @@ def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEd
     return [largest, *rest], joined
 
 
+def _pose_similarity(source: pycolmap.Reconstruction, target: pycolmap.Reconstruction,
+                     touched: set[int]) -> metrics.Similarity | None:
+    """The similarity taking source's untouched cameras onto target's, by their centres and
+    their viewing and up directions: centres alone leave a straight leg free to turn about its
+    line."""
+    src_poses, dst_poses = model_poses(source), model_poses(target)
+    common = sorted((set(src_poses) & set(dst_poses)) - touched)
+    if len(common) < 3:
+        return None
+
+    def points(poses):
+        centers = np.array([poses[i].center for i in common])
+        unit = spacing(centers) or 1.0
+        ahead = [geometry.viewing_direction(poses[i].rotation) for i in common]
+        up = [geometry.camera_up(poses[i].rotation) for i in common]
+        return np.vstack([centers, centers + unit * np.array(ahead), centers + unit * np.array(up)])
+
+    return metrics.Similarity(*metrics.umeyama(points(src_poses), points(dst_poses)))
+
+
+def join_placed_after_map(models: list[pycolmap.Reconstruction], base: pycolmap.Reconstruction,
+                          touched: set[int], placements: list[CameraEdit], frame: GroundFrame
+                          ) -> list[pycolmap.Reconstruction]:
+    """Models of a re-map (largest first) with every sub-model the placements mostly place joined
+    as join_placed joins them before the map; the models as they were when none is.
+
+    A leg with no match to the rest is mapped as a model of its own however it was joined
+    before; the placements join it again. The anchor is the model holding most of the untouched
+    images, carried onto the base by them (identity for a warm start that kept them fixed), as
+    the placements are in the base's frame."""
+    if len(models) < 2 or not placements:
+        return models
+    kept = max(range(len(models)), key=lambda i: len(set(models[i].reg_image_ids()) - touched))
+    sim = _pose_similarity(models[kept], base, touched)
+    if sim is None:
+        return models
+    anchor = pycolmap.Reconstruction(models[kept])
+    anchor.transform(to_sim3d(sim))
+    merged, joined = join_placed([anchor, *(m for i, m in enumerate(models) if i != kept)],
+                                 placements, frame)
+    if not joined:
+        return models
+    return sorted(merged, key=lambda m: -m.num_reg_images())
+
+
 def join_overlapping(models: list[pycolmap.Reconstruction],
                      min_shared: int = MIN_SHARED_IMAGES) -> list[pycolmap.Reconstruction]:
     """Models (largest first) with every sub-model that shares at least min_shared registered

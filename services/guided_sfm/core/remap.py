@@ -6,14 +6,16 @@ from __future__ import annotations
 import logging
 import tempfile
 import time
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pycolmap
 
-from guided_sfm.core import sfm
+from guided_sfm.core import join_groups, sfm
 from guided_sfm.core.errors import EmptyModel
 from guided_sfm.core.sfm import RunContext
+from guided_sfm.core.types import CameraEdit, GroundFrame
 
 log = logging.getLogger(__name__)
 
@@ -61,6 +63,28 @@ def without_images(model: pycolmap.Reconstruction, image_ids: set[int]) -> pycol
     return trimmed
 
 
+@dataclass(frozen=True)
+class Placed:
+    """The round's placements and the frame they are in (the base's scene frame): a sub-model of
+    the result they mostly place is joined to the largest by them (core/join_groups.py)."""
+
+    placements: Sequence[CameraEdit] = field(default_factory=tuple)
+    frame: GroundFrame | None = None
+
+    def join(self, models: list[pycolmap.Reconstruction], base: list[pycolmap.Reconstruction],
+             touched: set[int], sparse_dir: Path) -> list[pycolmap.Reconstruction]:
+        """The models joined (and written to sparse_dir in their place), or as they were."""
+        if not self.placements or self.frame is None or not base:
+            return models
+        joined = join_groups.join_placed_after_map(models, base[0], touched,
+                                                   list(self.placements), self.frame)
+        if joined is not models:
+            log.info("Joined by the placements after the map: %d model(s) -> %d, %d images in the "
+                     "largest", len(models), len(joined), joined[0].num_reg_images())
+            sfm.write_models(joined, sparse_dir)
+        return joined
+
+
 def warm_result_problem(base: pycolmap.Reconstruction, models: list[pycolmap.Reconstruction],
                         base_models: int) -> str | None:
     """Why a warm result is worse than its base (fewer images, a split, large error), or None."""
@@ -83,8 +107,8 @@ def holds_untouched_fixed(base: pycolmap.Reconstruction, touched: set[int]) -> b
 
 
 def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
-              touched: set[int], run: RunContext, keep_fixed: bool = False
-              ) -> tuple[list | None, str | None]:
+              touched: set[int], run: RunContext, keep_fixed: bool = False,
+              placed: Placed = Placed()) -> tuple[list | None, str | None]:
     """(models, why they are worse than the base or None) of a map from base_models[0] without
     the touched images; (None, why) when it registered nothing."""
     base = base_models[0]
@@ -99,25 +123,31 @@ def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: li
         except IndexError as exc:  # pycolmap on some models joined by a placement (issue 21)
             log.warning("The warm start failed (%s); mapping cold.", exc)
             return None, f"the warm start failed: {exc}"
+    warm = placed.join(warm, base_models, touched, sparse_dir)
     return warm, warm_result_problem(base, warm, len(base_models))
 
 
 def map_warm_or_cold(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,
                      touched: set[int], run: RunContext = RunContext(),
-                     cold: bool = False, keep_fixed: bool = False
+                     cold: bool = False, keep_fixed: bool = False,
+                     placements: Sequence[CameraEdit] = (), frame: GroundFrame | None = None
                      ) -> tuple[list[pycolmap.Reconstruction], MapReport]:
     """Map into sparse_dir: warm from base_models[0] without the touched images (those a round
     edited) unless cold or there is no base; keep_fixed keeps the base's cameras fixed (a model
-    joined by a placement: its parts share no matches a refinement could use)."""
+    joined by a placement: its parts share no matches a refinement could use). A sub-model the
+    placements (in frame, the base's scene frame) mostly place is joined to the largest by them
+    before the guard judges the result, warm or cold (Placed)."""
+    placed = Placed(tuple(placements), frame)
     start = time.perf_counter()
     fallback, warm = None, None
     if not cold and base_models:
         warm, fallback = _map_warm(database, image_dir, sparse_dir, base_models, touched, run,
-                                   keep_fixed)
+                                   keep_fixed, placed)
         if fallback is None:
             return warm, _report("warm", None, start, warm)
     try:
-        models = sfm.map_database(database, image_dir, sparse_dir, run)
+        models = placed.join(sfm.map_database(database, image_dir, sparse_dir, run), base_models,
+                             touched, sparse_dir)
     except EmptyModel:
         if warm is None:
             raise

@@ -35,7 +35,16 @@ from guided_sfm.core.rule import driver, evidence, separates
 from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.rule.tolerances import Tolerances
 from guided_sfm.core.sfm import RunContext
-from guided_sfm.core.types import DEFAULT_RULE, EditSet, PairKey, Progress, PruneResult, TopDownScene
+from guided_sfm.core.types import (
+    DEFAULT_RULE,
+    CameraEdit,
+    EditSet,
+    GroundFrame,
+    PairKey,
+    Progress,
+    PruneResult,
+    TopDownScene,
+)
 
 DATABASE, SPARSE, SCENE, META = "database.db", "sparse", "scene.json", "workspace.json"
 EDITS, PRUNING, JOINED = "edits.json", "pruning.json", "joined.json"
@@ -211,7 +220,8 @@ class Workspace:
         try:
             models, report = remap.map_warm_or_cold(database, image_dir or self.image_dir(), staging,
                                                     base_models, touched, run, cold,
-                                                    keep_fixed=(self.root / JOINED).is_file())
+                                                    keep_fixed=(self.root / JOINED).is_file(),
+                                                    **self._placed(base_models))
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)  # a cancelled or failed map leaves the base
             raise
@@ -224,6 +234,21 @@ class Workspace:
         staging.rename(self.sparse)
         self.write_scene()
         return report
+
+    def _placed(self, base_models: list) -> dict:
+        """The round's placements and the base's scene frame they are in (edits.json), for the
+        re-map to join what the matches cannot; {} when none (or an edits.json from before the
+        frame was recorded). Not this workspace's scene.json: a re-map rewrites it in the frame
+        of the new model, and map_checked maps again."""
+        if not base_models or not self.edits_file.is_file():
+            return {}
+        edits = json.loads(self.edits_file.read_text())
+        cameras = edits.get("cameras", [])
+        if not cameras or "frame" not in edits:
+            return {}
+        return {"placements": [CameraEdit(c["image_id"], c["x"], c["y"], c["yaw_deg"])
+                               for c in cameras],
+                "frame": GroundFrame.from_dict(edits["frame"])}
 
     def preview(self, edits: EditSet) -> PruneOutcome:
         """What pruning this workspace with these edits would delete; nothing is written."""
@@ -255,9 +280,14 @@ class Workspace:
         colmap_db.copy_without_pairs(self.require(), new.database, outcome.deleted)
         colmap_db.write_position_priors(new.database, self.placement_priors(edits))
         self._copy_models_to(new)
-        new.join_placed_groups(edits, self.scene().frame)
+        frame = self.scene().frame
+        new.join_placed_groups(edits, frame)
         new.write_meta({**self.read_meta(), "parent": str(self.root.resolve())})
-        new.edits_file.write_text(json.dumps(edits_to_json(edits), indent=2))
+        # the frame the placements are in, for the re-map's join (_placed)
+        edits_record = edits_to_json(edits)
+        if edits.cameras:
+            edits_record["frame"] = frame.to_dict()
+        new.edits_file.write_text(json.dumps(edits_record, indent=2))
         record = pruning_record(outcome, new.image_names())
         new.pruning_file.write_text(json.dumps(record, indent=2))
         return outcome
