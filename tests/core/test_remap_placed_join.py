@@ -1,6 +1,8 @@
 """A re-map that splits a leg the placements joined: the placements join it again after the map
 (core/join_groups.py join_placed_after_map), so the guard judges the joined result."""
 
+import json
+
 import numpy as np
 import pycolmap
 import pytest
@@ -116,11 +118,20 @@ def test_every_re_map_of_a_round_joins_by_the_base_frame(tiny_workspace, tmp_pat
         return real(*args, **kwargs)
 
     monkeypatch.setattr(remap, "map_warm_or_cold", recording)
+    # a round that joined no group passes no placements: nothing is pinned at a drag
+    new.map_again(RunContext(TINY_OPTIONS))
+    assert seen == [(None, None)]
+    # the premise: a re-map rewrites scene.json in its new model's frame, not the base's
+    assert not np.allclose(new.scene().frame.origin, base.scene().frame.origin, atol=0.1)
+    seen.clear()
+    new = Workspace(tmp_path / "joined")
+    base.prune(edits, new)
+    # as join_placed_groups records a group it joined (tiny maps one model: written here)
+    (new.root / "joined.json").write_text(json.dumps([camera.image_id]))
+
     new.map_again(RunContext(TINY_OPTIONS))
     new.map_again(RunContext(TINY_OPTIONS))
     assert len(seen) == 2
-    # the premise: the re-mapped scene's frame is not the base's
-    assert not np.allclose(new.scene().frame.origin, base.scene().frame.origin, atol=0.1)
     for placed, frame in seen:
         assert placed == edits.cameras
         np.testing.assert_allclose(frame.origin, base.scene().frame.origin)

@@ -239,8 +239,10 @@ class Workspace:
         """The round's placements and the base's scene frame they are in (edits.json), for the
         re-map to join what the matches cannot; {} when none (or an edits.json from before the
         frame was recorded). Not this workspace's scene.json: a re-map rewrites it in the frame
-        of the new model, and map_checked maps again."""
-        if not base_models or not self.edits_file.is_file():
+        of the new model, and map_checked maps again. Only a round that joined a group before
+        the map (joined.json) joins after it: in any other round a camera the re-map cannot
+        register with the rest is left to the guard, not pinned where the user dragged it."""
+        if not base_models or not self.edits_file.is_file() or not (self.root / JOINED).is_file():
             return {}
         edits = json.loads(self.edits_file.read_text())
         cameras = edits.get("cameras", [])
