@@ -48,10 +48,10 @@ def test_a_sub_model_keeps_its_shape_beside_the_largest(scene_and_models):
     np.testing.assert_allclose(turns, np.diff([y for *_, y in OTHER]), atol=1e-6)
 
 
-def true_placements(frame: GroundFrame) -> list[CameraEdit]:
-    """Each camera of the other model where it truly is, on the frame's 2D view."""
+def true_placements(frame: GroundFrame, cameras=OTHER) -> list[CameraEdit]:
+    """Each of these cameras (default: the other model's) where it truly is, on the frame's 2D view."""
     placements = []
-    for name, image_id, center, yaw in OTHER:
+    for name, image_id, center, yaw in cameras:
         x, y = frame.to_2d(np.array([center]))[0]
         rotation = _model([(name, image_id, center, yaw)]).image(image_id).cam_from_world().rotation
         placements.append(CameraEdit(image_id, float(x), float(y), float(geometry.yaw_in_frame(

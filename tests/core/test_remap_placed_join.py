@@ -14,6 +14,7 @@ from guided_sfm.core.join_groups import join_placed
 from guided_sfm.core.metrics import Similarity
 from guided_sfm.core.types import CameraEdit
 from tests.core.test_group_pose import LARGEST, OTHER, split_models
+from tests.core.test_group_pose import true_placements as placements
 from tests.core.test_topdown import _build, _model
 
 WRITE_MODELS = sfm.write_models
@@ -24,17 +25,6 @@ def scene_and_models(tmp_path):
     largest, other = split_models()
     images = [(i, n) for n, i, _, _ in LARGEST + OTHER]
     return _build([largest, other], images, tmp_path), [largest, other]
-
-
-def placements(frame, cameras):
-    """Each camera where it truly is, on the frame's 2D view."""
-    out = []
-    for name, image_id, center, yaw in cameras:
-        x, y = frame.to_2d(np.array([center]))[0]
-        rotation = _model([(name, image_id, center, yaw)]).image(image_id).cam_from_world().rotation
-        out.append(CameraEdit(image_id, float(x), float(y), float(geometry.yaw_in_frame(
-            geometry.viewing_direction(rotation.matrix()), frame))))
-    return out
 
 
 def elsewhere(cameras, turn=0.7, scale=0.5):

@@ -32,6 +32,18 @@ def to_photo(rgb: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
 
+def _write_view(spec, pose, rank: int, seed: int, out_dir: Path) -> dict:
+    """Render one view into images/ and depth/; its truth record."""
+    r, t = pose
+    rgb, depth = render(spec.scene, spec.camera, (r, t))
+    photo = to_photo(rgb, np.random.default_rng([seed, rank, 7]))
+    name = f"{rank:04d}.jpg"
+    PIL.Image.fromarray(photo).save(out_dir / "images" / name, quality=JPEG_QUALITY)
+    np.save(out_dir / "depth" / f"{rank:04d}.npy", depth)
+    return {"name": name, "center": [float(v) for v in -r.T @ t], "qvec": qvec_from_matrix(r),
+            "tvec": [float(v) for v in t]}
+
+
 def write_sample(out_dir: Path, layout: str, seed: int = 0, progress: Progress = no_progress,
                  resolution: tuple[int, int] | None = None, views: int | None = None) -> Path:
     """Render every view of a layout into out_dir (images/, depth/, truth.json); returns out_dir.
@@ -51,20 +63,8 @@ def write_sample(out_dir: Path, layout: str, seed: int = 0, progress: Progress =
     records = []
     n = len(spec.poses)
     progress("render", 0.0)
-    for i, (r, t) in enumerate(spec.poses):
-        rgb, depth = render(spec.scene, spec.camera, (r, t))
-        photo = to_photo(rgb, np.random.default_rng([seed, i, 7]))
-        name = f"{i:04d}.jpg"
-        PIL.Image.fromarray(photo).save(out_dir / "images" / name, quality=JPEG_QUALITY)
-        np.save(out_dir / "depth" / f"{i:04d}.npy", depth)
-        records.append(
-            {
-                "name": name,
-                "center": [float(v) for v in -r.T @ t],
-                "qvec": qvec_from_matrix(r),
-                "tvec": [float(v) for v in t],
-            }
-        )
+    for i, pose in enumerate(spec.poses):
+        records.append(_write_view(spec, pose, i, seed, out_dir))
         progress("render", (i + 1) / n)
     truth = {
         "units": "m",
