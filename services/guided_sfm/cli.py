@@ -93,7 +93,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> None:
     used = workspace.used()
     matcher = used["matcher"] if args.matcher == used["matcher"] else f"{args.matcher}: {used['matcher']}"
     print_table([*sorted(workspace.stats().items()), ("matcher", matcher), ("mapper", used["mapper"]),
-                 *format_report(clock.report())])
+                 ("max_image_size", used["max_image_size"]), *format_report(clock.report())])
 
 
 def cmd_scene(args: argparse.Namespace) -> None:

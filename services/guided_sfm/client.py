@@ -160,7 +160,7 @@ class Client:
 
     # jobs
     def reconstruct(self, pid: int, **options: Any) -> Json:
-        """Queue a reconstruction (options: camera_model, matcher, mapper); the job."""
+        """Queue a reconstruction (options: camera_model, matcher, mapper, max_image_size); the job."""
         return self.request("POST", f"/projects/{pid}/reconstruct", json=options)
 
     def job(self, job_id: int) -> Json:

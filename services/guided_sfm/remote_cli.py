@@ -96,6 +96,8 @@ def _images(path: Path) -> list[Path]:
 
 def cmd_reconstruct(client: Client, args: argparse.Namespace) -> None:
     options = {k: v for k, v in (("matcher", args.matcher), ("mapper", args.mapper)) if v}
+    if args.max_image_size is not None:
+        options["max_image_size"] = args.max_image_size  # 0 too: COLMAP's own
     job = client.reconstruct(args.pid, **options)
     _finish(client, args, job)
 
@@ -167,7 +169,10 @@ COMMANDS = [
       ("--batch-mb", {"type": float, "default": 100.0,
                       "help": "MB per request (under the server's upload cap)"}), JSON]),
     ("reconstruct", cmd_reconstruct, "reconstruct from scratch and wait",
-     [PID, ("--matcher", {"default": None}), ("--mapper", {"default": None}), NO_WAIT, JSON]),
+     [PID, ("--matcher", {"default": None}), ("--mapper", {"default": None}),
+      ("--max-image-size", {"type": int, "default": None, "metavar": "PIXELS",
+                            "help": "SIFT's longest side (default 1600; 0: COLMAP's own, 3200)"}),
+      NO_WAIT, JSON]),
     ("wait", cmd_wait, "wait for a job", [("job_id", {"type": int}), JSON]),
     ("scene", cmd_scene, "a version's top-down scene as JSON (default: the head)",
      [PID, ("--version", {"type": int, "default": None})]),

@@ -50,6 +50,26 @@ def test_bad_options_are_422_and_no_job(client, session):
     assert session.query(Job).count() == 0
 
 
+def test_a_max_image_size_outside_0_or_256_to_10000_is_422_naming_it_and_no_job(client, session):
+    headers, pid = setup_project(client)
+    for size in (-1, 1, 255, 10001, "1600", 1600.5, True):
+        body = {"max_image_size": size}
+        response = client.post(f"/api/v1/projects/{pid}/reconstruct", json=body, headers=headers)
+        assert response.status_code == 422, body
+        assert "max_image_size" in response.json()["detail"], response.text
+    assert session.query(Job).count() == 0
+
+
+def test_a_max_image_size_is_kept_with_the_job(client, session):
+    headers, pid = setup_project(client)
+    for size in (0, 256, 10000):
+        body = {"matcher": "exhaustive", "max_image_size": size}
+        response = client.post(f"/api/v1/projects/{pid}/reconstruct", json=body, headers=headers)
+        assert response.status_code == 202, response.text
+        assert session.get(Job, response.json()["id"]).params == body
+        client.post(f"/api/v1/jobs/{response.json()['id']}/cancel", headers=headers)
+
+
 def test_enqueue_failure_keeps_the_committed_job(client, session):
     client.app.state.submit = lambda job_id: (_ for _ in ()).throw(ConnectionError("broker down"))
     headers, pid = setup_project(client)

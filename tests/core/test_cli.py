@@ -86,10 +86,13 @@ def test_map_reports_each_stage_with_its_time_and_peak_memory(tiny_workspace, tm
     assert int(peak) > 50  # pycolmap and numpy alone hold more than 50 MiB
 
 
-def test_reconstruct_table_names_the_matcher_auto_chose_and_the_mapper(tiny_sample, tmp_path):
-    done = run("reconstruct", tiny_sample / "images", tmp_path / "ws", "--threads", "2", check=True)
+def test_reconstruct_table_names_the_matcher_auto_chose_the_mapper_and_the_image_size(tiny_sample,
+                                                                                       tmp_path):
+    done = run("reconstruct", tiny_sample / "images", tmp_path / "ws", "--threads", "2",
+               "--max-image-size", "0", check=True)
     rows = dict(line.split(None, 1) for line in done.stdout.splitlines() if line.strip())
     assert rows["matcher"] == "auto: exhaustive" and rows["mapper"] == "incremental"
+    assert rows["max_image_size"] == "3200"  # 0: COLMAP's own
 
 
 def test_suspects_names_images_and_ends_with_the_json_document(tiny_workspace):

@@ -33,7 +33,8 @@ def test_below_the_threshold_auto_compares_every_pair_as_before(count):
 def test_a_small_default_reconstruction_matched_every_pair_without_a_tree(tiny_workspace_ro):
     workspace = Workspace(tiny_workspace_ro)
     assert TINY_OPTIONS.matcher == "auto"
-    assert workspace.used() == {"matcher": "exhaustive", "mapper": "incremental", "pairs": 66}
+    assert workspace.used() == {"matcher": "exhaustive", "mapper": "incremental", "pairs": 66,
+                                "max_image_size": sfm.DEFAULT_MAX_IMAGE_SIZE}
     assert not workspace.tree.exists()
 
 

@@ -32,7 +32,8 @@ def test_reconstruct_job_makes_the_head(client, headers_pid, sessions, settings,
     assert runner.run_job(sessions, settings, job_id) == "succeeded"
     job = job_json(client, headers, job_id)
     assert job["state"] == "succeeded" and job["progress"] == 1.0 and job["version_id"]
-    assert job["message"].endswith("(exhaustive matching, incremental mapping)"), job["message"]
+    assert job["message"].endswith("(exhaustive matching, incremental mapping, max image size 1600)"), \
+        job["message"]
     stages = {s["stage"]: s for s in job["timings"]["stages"]}
     assert {"extract", "match", "map"} <= set(stages)
     assert all(s["seconds"] > 0 and s["peak_mb"] > 0 for s in stages.values())
@@ -48,16 +49,22 @@ def test_jobs_say_what_auto_chose_and_a_reconstruction_reuses_the_projects_tree(
         client, headers_pid, session, sessions, settings, tiny_images):
     headers, pid = headers_pid
     upload_dir(client, headers, pid, tiny_images / "images")
-    trees, messages = [], []
-    for body in ({"matcher": "retrieval"}, {}, {"matcher": "retrieval"}):
+    trees, messages, sizes = [], [], []
+    # 0: COLMAP's own size (3200); the tiny sample's 640x480 images get the same features
+    for body in ({"matcher": "retrieval"}, {}, {"matcher": "retrieval", "max_image_size": 0}):
         job_id = client.post(f"/api/v1/projects/{pid}/reconstruct", json=body, headers=headers).json()["id"]
         assert runner.run_job(sessions, settings, job_id) == "succeeded"
         job = job_json(client, headers, job_id)
         messages.append(job["message"])
-        tree = settings.artifacts_dir / session.get(Version, job["version_id"]).path / "vocab_tree.bin"
+        published = settings.artifacts_dir / session.get(Version, job["version_id"]).path
+        tree = published / "vocab_tree.bin"
         trees.append(tree.stat().st_ino if tree.is_file() else None)
-    assert messages[0].endswith("(retrieval matching, incremental mapping)"), messages
-    assert messages[1].endswith("(auto: exhaustive matching, incremental mapping)"), messages
+        sizes.append(json.loads((published / "workspace.json").read_text())["used"]["max_image_size"])
+    assert messages[0].endswith("(retrieval matching, incremental mapping, max image size 1600)"), messages
+    assert messages[1].endswith("(auto: exhaustive matching, incremental mapping, max image size 1600)"), \
+        messages
+    assert messages[2].endswith("(retrieval matching, incremental mapping, max image size 3200)"), messages
+    assert sizes == [1600, 1600, 3200]
     # the tree stays with the project: the auto run (12 images: exhaustive) keeps it linked, and
     # the next retrieval run uses the first's rather than training one again
     assert trees[0] is not None and trees == [trees[0]] * 3

@@ -15,7 +15,15 @@ from guided_sfm.db.models import Job
 from guided_sfm.settings import Settings
 from guided_sfm.storage import Store
 
-SFM_PARAMS = ("camera_model", "matcher", "mapper")
+SFM_PARAMS = ("camera_model", "matcher", "mapper", "max_image_size")
+
+
+def sfm_options(params: dict[str, Any], **extra: Any) -> SfmOptions:
+    """The SfM options a job's params choose, over the defaults (max_image_size 0: COLMAP's own)."""
+    chosen = {k: v for k, v in params.items() if k in SFM_PARAMS and v}
+    if params.get("max_image_size") == 0:
+        chosen["max_image_size"] = None
+    return SfmOptions(**chosen, **extra)
 
 
 @dataclass(frozen=True)
@@ -30,8 +38,7 @@ class JobContext:
 
     def options(self) -> SfmOptions:
         """The job's SfM options over the defaults, with the configured thread count."""
-        chosen = {k: v for k, v in self.job.params.items() if k in SFM_PARAMS and v}
-        return SfmOptions(num_threads=self.settings.threads, **chosen)
+        return sfm_options(self.job.params, num_threads=self.settings.threads)
 
     def run(self) -> RunContext:
         """The job's options, progress reports and cancellation, as the core's steps take them."""

@@ -9,9 +9,8 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from guided_sfm import jobs
-from guided_sfm.actions.context import JobContext, Produced
+from guided_sfm.actions.context import JobContext, Produced, sfm_options
 from guided_sfm.core.errors import InvalidInput
-from guided_sfm.core.sfm import SfmOptions
 from guided_sfm.core.workspace import Workspace
 from guided_sfm.db import queries
 from guided_sfm.db.models import Job, Project
@@ -21,7 +20,7 @@ from guided_sfm.db.session import session_scope
 def queue(session: Session, submit: Callable[[int], None], project: Project, user_id: int,
           params: dict[str, Any]) -> Job:
     """Queue a reconstruction of the project's images; options the worker could not use are refused now."""
-    SfmOptions(**params)  # an unknown camera model is an InvalidInput here, not a failed job later
+    sfm_options(params)  # an unknown camera model is an InvalidInput here, not a failed job later
     return jobs.queue(session, submit, project, "reconstruct", user_id, params, project.head_version_id)
 
 
@@ -38,7 +37,7 @@ def run(context: JobContext, work: Path) -> Produced:
     stats, used = workspace.stats(), workspace.used()
     message = (f"reconstructed {stats['num_registered']} of {stats['num_images']} images "
                f"({_chosen(run.options.matcher, used['matcher'])} matching, "
-               f"{used['mapper']} mapping)")
+               f"{used['mapper']} mapping, max image size {used['max_image_size']})")
     return Produced(work, "reconstruct", message, context.job.base_version_id, stats, reuse_from=reused)
 
 

@@ -155,10 +155,24 @@ class ImageOut(Out):
     already_uploaded: bool = False  # an upload sent again: this name with this content was there
 
 
+MIN_IMAGE_SIZE, MAX_IMAGE_SIZE = 256, 10_000
+
+
+def _image_size(size: int) -> int:
+    if 0 < size < MIN_IMAGE_SIZE:
+        raise ValueError(f"must be 0 (COLMAP's own, 3200) or from {MIN_IMAGE_SIZE} to {MAX_IMAGE_SIZE}")
+    return size
+
+
+# SIFT's longest side in pixels; 0: COLMAP's own (3200); None: the product's (sfm.DEFAULT_MAX_IMAGE_SIZE)
+ImageSize = Annotated[StrictInt, Field(ge=0, le=MAX_IMAGE_SIZE), AfterValidator(_image_size)]
+
+
 class ReconstructIn(In):
     camera_model: str | None = None
     matcher: Literal["auto", "exhaustive", "sequential", "retrieval"] | None = None  # None: auto
     mapper: Literal["incremental", "global", "hierarchical"] | None = None
+    max_image_size: ImageSize | None = None
 
 
 class JobOut(Out):

@@ -193,6 +193,14 @@ def _groups_by_size(image_dir: Path, names: Sequence[str]) -> dict[tuple[int, in
     return groups
 
 
+def effective_max_image_size(options: SfmOptions) -> int:
+    """The longest image side SIFT runs at with these options (COLMAP's own where they set none)."""
+    extraction = pycolmap.FeatureExtractionOptions()
+    if options.max_image_size is not None:
+        extraction.max_image_size = options.max_image_size
+    return extraction.eff_max_image_size()
+
+
 def extract_features(image_dir: Path, database: Path, run: RunContext = RunContext(),
                      image_names: Sequence[str] | None = None) -> None:
     """SIFT features of every image into the database (images already there are skipped).

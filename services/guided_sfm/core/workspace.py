@@ -3,9 +3,10 @@ writes its files, and runs the steps on it: reconstruct, preview and prune an ed
 workspace, map again.
 
 A workspace holds `database.db`, `sparse/0/` (largest model), `sparse/1/`, ..., `scene.json`
-(the top-down scene), `workspace.json` (where its images are, options, the matcher and mapper
-used, parent), `vocab_tree.bin` when retrieval matched it (kept: later runs reuse it) and, when
-it came from a correction round, `edits.json` and `pruning.json`. Exports are in `exports.py`.
+(the top-down scene), `workspace.json` (where its images are, options, the matcher, mapper
+and image size used, parent), `vocab_tree.bin` when retrieval matched it (kept: later runs
+reuse it) and, when it came from a correction round, `edits.json` and `pruning.json`. Exports
+are in `exports.py`.
 """
 
 from __future__ import annotations
@@ -192,14 +193,15 @@ class Workspace:
         # the tree, if any, stays: a tree of the same project's images serves a new run as well
         meta["used"] = {"matcher": sfm.match_features(self.database, run, self.tree),
                         "mapper": run.options.mapper,
-                        "pairs": colmap_db.matched_pair_count(self.database)}
+                        "pairs": colmap_db.matched_pair_count(self.database),
+                        "max_image_size": sfm.effective_max_image_size(run.options)}
         self.write_meta(meta)
         colmap_db.finalize(self.database)
         self.map_again(run, image_dir, cold=True)
 
     def used(self) -> dict[str, str | int]:
-        """The matcher and mapper the reconstruction used (what `auto` chose) and how many pairs
-        it matched; {} if unknown."""
+        """The matcher and mapper the reconstruction used (what `auto` chose), how many pairs it
+        matched and the longest image side SIFT ran at; {} if unknown."""
         return dict(self.read_meta().get("used", {}))
 
     def map_again(self, run: RunContext = RunContext(), image_dir: Path | None = None,
