@@ -52,10 +52,11 @@ def zip_bytes(entries: dict[str, bytes]) -> bytes:
 
 
 def workspace_zip(workspace: Path, images: Path) -> bytes:
-    """A COLMAP workspace as the import route takes it: database.db, sparse/0/, images/."""
+    """A COLMAP workspace as the import route takes it: database.db, sparse/0/ (and any other
+    sparse/<k>/), images/."""
     entries = {"database.db": (workspace / "database.db").read_bytes()}
-    for path in sorted((workspace / "sparse" / "0").iterdir()):
-        entries[f"sparse/0/{path.name}"] = path.read_bytes()
+    for path in sorted((workspace / "sparse").glob("*/*")):
+        entries[path.relative_to(workspace).as_posix()] = path.read_bytes()
     for path in sorted(images.iterdir()):
         entries[f"images/{path.name}"] = path.read_bytes()
     return zip_bytes(entries)

@@ -1,7 +1,9 @@
 """run_job in-process against the real DB (savepoint-isolated): reconstruct, apply, import, failures."""
 
 import json
+import shutil
 
+import pycolmap
 import pytest
 
 from guided_sfm import jobs
@@ -154,6 +156,48 @@ def test_import_job(client, headers_pid, sessions, settings, tiny_reconstruction
     assert {c["image_id"] for c in scene["cameras"]} == {i["id"] for i in images}
     again = client.post(f"/api/v1/projects/{pid}/import", files=files, headers=headers)
     assert again.status_code == 409
+
+
+def test_an_imported_workspace_numbers_its_models_largest_first_as_reconstruct_does(
+        client, headers_pid, session, sessions, settings, tiny_reconstruction, tiny_images, tmp_path):
+    from tests.core.test_triage_model_order import _keep_only
+
+    headers, pid = headers_pid
+    full = tiny_reconstruction / "sparse" / "0"
+    ids = sorted(pycolmap.Reconstruction(full).reg_image_ids())
+    few, many = set(ids[-4:]), set(ids[:-4])
+    previews = []
+    # COLMAP numbers models as it made them: here sparse/0 is the smaller; then the same models in order
+    for order in ((few, many), (many, few)):
+        workspace = tmp_path / f"ws{len(previews)}"
+        (workspace / "sparse").mkdir(parents=True)
+        shutil.copy(tiny_reconstruction / "database.db", workspace)
+        for index, image_ids in enumerate(order):
+            _keep_only(full, image_ids, workspace / "sparse" / str(index))
+        project = pid if not previews else make_project(client, headers, "in order")
+        files = {"file": ("ws.zip", workspace_zip(workspace, tiny_images / "images"))}
+        job_id = client.post(f"/api/v1/projects/{project}/import", files=files, headers=headers).json()["id"]
+        assert runner.run_job(sessions, settings, job_id) == "succeeded"
+        head = session.get(Project, project).head_version_id
+        published = settings.artifacts_dir / session.get(Version, head).path / "sparse"
+        assert [pycolmap.Reconstruction(published / k).num_reg_images() for k in ("0", "1")] == [8, 4]
+        previews.append(_preview_by_name(client, headers, project, head))
+    assert previews[0] == previews[1] and previews[0]["pairs_to_delete"]
+
+
+def _preview_by_name(client, headers, pid, head):
+    """The preview of moving the first camera of the largest model onto the last one, with names."""
+    scene = client.get(f"/api/v1/projects/{pid}/versions/{head}/scene", headers=headers).json()
+    names = {c["image_id"]: c["name"] for c in scene["cameras"]}
+    placed = sorted((c for c in scene["cameras"] if c["registered"]), key=lambda c: c["name"])
+    moved = {"image_id": placed[0]["image_id"], "x": placed[-1]["x"], "y": placed[-1]["y"],
+             "yaw_deg": placed[-1]["yaw_deg"] + 90}
+    edit = {"base_version_id": head, "cameras": [moved]}
+    eid = client.post(f"/api/v1/projects/{pid}/edits", json=edit, headers=headers).json()["id"]
+    preview = client.get(f"/api/v1/projects/{pid}/edits/{eid}/preview", headers=headers).json()
+    return {"pairs_to_delete": sorted(sorted(names[i] for i in pair) for pair in preview["pairs_to_delete"]),
+            "reasons": sorted((sorted(names[i] for i in r["pair"]), sorted(r["tests"]))
+                              for r in preview["reasons"])}
 
 
 def test_sweeper_fails_silent_running_jobs_and_resends_lost_ones(client, headers_pid, session, settings):

@@ -93,6 +93,7 @@ def run(context: JobContext, work: Path) -> Produced:
     workspace = Workspace(work)
     location = context.store.image_location(context.job.project_id)
     workspace.write_meta({"image_dir": location, "imported": True})
+    workspace.number_models_largest_first()  # sparse/0 is the largest, as a reconstruction's
     names = set(workspace.image_ids())
     missing = sorted(names - {image.name for image in images})
     if missing:

@@ -130,6 +130,17 @@ class Workspace:
         need not be numbered in that order."""
         return colmap_model.load_models_with_dirs(self.sparse) if self.sparse.is_dir() else []
 
+    def number_models_largest_first(self) -> None:
+        """Rename the sparse/<k> folders so that 0 is the largest model, 1 the next, ..., as
+        reconstruct writes them (an imported workspace's are numbered as COLMAP made them); every
+        reader of sparse/0 then reads the largest. Equal models keep their order."""
+        loaded = self.load_models_with_dirs()
+        if [folder.name for folder, _ in loaded] == [str(k) for k in range(len(loaded))]:
+            return
+        moving = [folder.rename(folder.with_name(folder.name + ".renumbered")) for folder, _ in loaded]
+        for index, folder in enumerate(moving):
+            folder.rename(self.model_dir(index))
+
     def build_scene(self) -> TopDownScene:
         """The top-down scene built from the models and database (nothing written)."""
         database = self.require()
