@@ -39,12 +39,32 @@ def test_readiness_names_a_data_dir_store_it_cannot_write(settings, sessions):
     app = create_app(settings, lambda _: None, sessions=sessions, readiness=dict)
     with TestClient(app) as client:
         assert client.get("/api/v1/health/ready").json() == {"status": "ready"}
-        settings.artifacts_dir.rmdir()  # made by the check (a new data dir is ready), left empty
+        settings.artifacts_dir.rmdir()  # made at the app's start (a new data dir is ready), left empty
         settings.artifacts_dir.write_bytes(b"")
         response = client.get("/api/v1/health/ready")
         assert response.status_code == 503 and response.json()["down"] == ["store"], response.text
         assert "artifact store" in response.json()["detail"]
         assert str(settings.data_dir) not in response.text  # no server paths
+        assert client.get("/api/v1/health").status_code == 200
+
+
+def test_readiness_names_a_data_dir_store_whose_artifacts_folder_is_gone_and_makes_none(
+        tmp_path, database_url, sessions):
+    """An unmounted volume has no artifacts folder: not ready, naming the store, and the probe does
+    not make one (that would read as ready); the app's start makes it for a new data dir."""
+    settings = make_settings(tmp_path / "data", database_url)
+    assert not settings.artifacts_dir.exists()
+    app = create_app(settings, lambda _: None, sessions=sessions, readiness=dict)
+    assert settings.artifacts_dir.is_dir()  # made at start-up
+    with TestClient(app) as client:
+        assert client.get("/api/v1/health/ready").json() == {"status": "ready"}
+        settings.artifacts_dir.rmdir()
+        for _ in range(2):  # the first probe made nothing the second finds
+            response = client.get("/api/v1/health/ready")
+            assert response.status_code == 503 and response.json()["down"] == ["store"], response.text
+            assert "no artifacts folder" in response.json()["detail"]
+            assert str(settings.data_dir) not in response.text  # no server paths
+        assert not settings.artifacts_dir.exists()
         assert client.get("/api/v1/health").status_code == 200
 
 

@@ -63,6 +63,7 @@ def test_a_file_put_is_fetched_streamed_and_removed(any_store, tmp_path):
 
 def test_a_store_that_answers_passes_its_check_and_the_probe_is_no_project_file(any_store):
     """Readiness writes a probe; it must not look like a project file to the reconciler."""
+    any_store.prepare()  # as the API's start does
     any_store.check()
     any_store.check()  # again: the same probe, nothing piles up
     assert any_store.children("projects") == []

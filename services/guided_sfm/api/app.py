@@ -49,6 +49,7 @@ def create_app(settings: Settings, submit: Callable[[int], None],
     app.state.settings = settings
     app.state.sessions = sessions or make_sessionmaker(settings)
     app.state.store = open_store(settings)
+    app.state.store.prepare()  # a new data dir's artifacts folder (the readiness probe makes none)
     app.state.submit = submit
     app.state.readiness = readiness or dict
     app.state.throttle = Throttle(settings)

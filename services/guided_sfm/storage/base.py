@@ -131,6 +131,10 @@ class Store(ABC):
     def check(self) -> None:
         """Raise StoreUnavailable unless the store answers and takes a write (readiness); quick."""
 
+    @abstractmethod
+    def prepare(self) -> None:
+        """Make what the store needs before its first use (at the API's start, never in check())."""
+
     def clear_stale_scratch(self) -> int:
         """Scratch dirs left by processes that died mid-job; the count removed."""
         return 0

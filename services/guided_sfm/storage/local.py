@@ -84,10 +84,16 @@ class ArtifactStore(Store):
         path = self.root / key
         return Blob(path.stat().st_size, path=path)
 
+    def prepare(self) -> None:
+        """The root, made for a new data dir (at the API's start; never by check())."""
+        self.root.mkdir(parents=True, exist_ok=True)
+
     def check(self) -> None:
-        """A file made and removed at the root (a missing root is made: a new data dir is fine)."""
+        """A file made and removed at the root. A missing root is not made: a volume that is not
+        mounted (or went away) has none, and a folder made in its place would read as ready."""
+        if not self.root.is_dir():
+            raise StoreUnavailable("artifact store unavailable (the data dir has no artifacts folder)")
         try:
-            self.root.mkdir(parents=True, exist_ok=True)
             with tempfile.NamedTemporaryFile(dir=self.root, prefix=".ready-"):
                 pass
         except OSError as exc:  # no paths in the reason: readiness answers anyone

@@ -147,6 +147,9 @@ class S3Store(Store):
         return None if head is None else head["LastModified"].timestamp()
 
     @_reaching
+    def prepare(self) -> None:
+        """Nothing: the bucket is made where the store is deployed (compose's minio-init)."""
+
     def check(self) -> None:
         """One empty object written (reachable, the bucket there, writes allowed), tried once."""
         self.probe_client.put_object(Bucket=self.bucket, Key=self._key(PROBE_KEY), Body=b"")
