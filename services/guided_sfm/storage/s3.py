@@ -146,10 +146,10 @@ class S3Store(Store):
         head = self._head(key)
         return None if head is None else head["LastModified"].timestamp()
 
-    @_reaching
     def prepare(self) -> None:
         """Nothing: the bucket is made where the store is deployed (compose's minio-init)."""
 
+    @_reaching
     def check(self) -> None:
         """One empty object written (reachable, the bucket there, writes allowed), tried once."""
         self.probe_client.put_object(Bucket=self.bucket, Key=self._key(PROBE_KEY), Body=b"")
