@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import json
 import os
 import signal
 import statistics
@@ -93,6 +94,15 @@ def imported(url: str, root: Path) -> tuple[str, int, int]:
     return token, pid, done["version_id"]
 
 
+def save_payload(url: str, token: str, pid: int, vid: int, out: Path) -> None:
+    """The scene (the server's level of detail, as the editor first asks) and every pair, as sent."""
+    with Client(url, token, timeout=600) as api:
+        scene = api.request("GET", f"/projects/{pid}/versions/{vid}/scene")
+        pairs = api.request("GET", f"/projects/{pid}/versions/{vid}/pairs")
+    out.write_text(json.dumps({"scene": scene, "pairs": pairs}))
+    print(f"payload written: {len(scene['cameras'])} cameras, {len(pairs)} pairs")
+
+
 def payload(url: str, token: str, pid: int, vid: int) -> list[str]:
     """The scene's bytes and server seconds at the default level and at every kept point."""
     lines = []
@@ -141,6 +151,9 @@ def main() -> None:
     parser.add_argument("--cameras", type=int, default=1000)
     parser.add_argument("--points", type=int, default=200_000)
     parser.add_argument("--opens", type=int, default=5)
+    parser.add_argument("--save-payload", type=Path, default=None,
+                        help="also write the scene and pair list the API sent, as JSON, for "
+                             "bench_frontend.py --payload")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="bench-editor-") as tmp:
         root = args.workspace or Path(tmp) / "ws"
@@ -154,6 +167,8 @@ def main() -> None:
             token, pid, vid = imported(url, root)
             print(f"{len(Workspace(root).image_names())} cameras, project {pid} version {vid}")
             print("\n".join(payload(url, token, pid, vid)))
+            if args.save_payload:
+                save_payload(url, token, pid, vid, args.save_payload)
             times = first_draws(url, pid, len(Workspace(root).image_names()), args.opens)
         finally:
             server.send_signal(signal.SIGTERM)

@@ -7,6 +7,10 @@ match pairs, redraw). Every timed frame ends with a 1-pixel readback, which make
 the canvas before the clock stops. Targets (issue 4): first render < 1 s, median frame < 16 ms.
 
     .venv/bin/python benchmarks/bench_frontend.py [--cameras 1000] [--points 200000] [--frames 120]
+        [--payload FILE]
+
+--payload takes a real scene and pair list as the API sent them (bench_editor_api.py
+--save-payload FILE) in place of the synthetic scene.
 
 The first draw on a real 1,000-camera payload from the API (import, scene at the server's level of
 detail, the whole editor opening the project) is benchmarks/bench_editor_api.py.
@@ -98,8 +102,8 @@ function pairsOf(n) {  // each camera matched to its 10 capture-order successors
 const flush = (view) => view.ctx.getImageData(0, 0, 1, 1);
 
 window.runBench = async () => {
-  const text = sceneJson();
-  const pairRows = pairsOf(CONFIG.cameras);
+  const text = CONFIG.sceneText ?? sceneJson();
+  const pairRows = CONFIG.pairRows ?? pairsOf(CONFIG.cameras);
   await new Promise(requestAnimationFrame);
   const t0 = performance.now();
   const scene = JSON.parse(text);
@@ -207,8 +211,15 @@ def main() -> int:
     parser.add_argument("--points", type=int, default=200_000)
     parser.add_argument("--frames", type=int, default=120)
     parser.add_argument("--frusta", action="store_true", help="draw the frustum triangles too")
+    parser.add_argument("--payload", type=Path, default=None,
+                        help="a real scene and pair list from the API (bench_editor_api.py "
+                             "--save-payload) instead of the synthetic scene")
     args = parser.parse_args()
     config = {"cameras": args.cameras, "points": args.points, "frames": args.frames, "frusta": args.frusta}
+    if args.payload:
+        real = json.loads(args.payload.read_text())
+        config.update(sceneText=json.dumps(real["scene"]), pairRows=real["pairs"])
+        args.cameras, args.points = len(real["scene"]["cameras"]), len(real["scene"]["points"]["xy"])
     result = run(config)
     frames = result["frames"][5:]  # the first frames include JIT warm-up
     median = percentile(frames, 0.5)
