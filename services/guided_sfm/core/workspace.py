@@ -279,13 +279,13 @@ class Workspace:
         similarity carrying it into the largest model's world, largest first."""
         largest = self.model_dir()
         others = [d for d in self.sparse.iterdir() if d.name.isdigit() and d != largest]
-        if not others or not edits.cameras:
-            return []
+        in_largest = evidence.model_parts(largest).poses
+        if not others or all(c.image_id in in_largest for c in edits.cameras):
+            return []  # (a sub-model is read only when the edit set places one of its cameras)
         parts = {d: evidence.model_parts(d).poses for d in others}
         others.sort(key=lambda d: (-len(parts[d]), int(d.name)))
-        found = join_groups.placed_similarities(
-            [evidence.model_parts(largest).poses, *(parts[d] for d in others)], edits.cameras,
-            self.scene().frame)
+        found = join_groups.placed_similarities([in_largest, *(parts[d] for d in others)],
+                                                edits.cameras, self.scene().frame)
         return [(others[index - 1], sim) for index, sim in sorted(found.items())]
 
     def prune(self, edits: EditSet, new: Workspace) -> PruneOutcome:
