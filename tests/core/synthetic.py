@@ -53,6 +53,9 @@ class Capture:
     motion: tuple[np.ndarray, np.ndarray] = (np.eye(3), np.zeros(3))
     matches: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     unpointed: set[int] = field(default_factory=set)  # images whose keypoints have no 3D point
+    # images of a sub-model: no pose in the scene (the largest model's), their evidence carried
+    # into the largest model's world as the join by their placements carries them
+    outside: set[int] = field(default_factory=set)
 
     def match(self, a: int, b: int, points_a: np.ndarray, points_b: np.ndarray | None = None):
         """Record pair (a, b): a sees points_a, b sees points_b (default: the same points)."""
@@ -72,7 +75,9 @@ class Capture:
         return points @ self.motion[0].T + self.motion[1] if image_id in self.cluster else points
 
     def scene(self, fov_deg: float = 60.0, range_: float = 4.0) -> TopDownScene:
-        cameras = [_scene_camera(i, self.model_pose(i), fov_deg, range_) for i in sorted(self.poses)]
+        cameras = [SceneCamera(i, f"{i:04d}.jpg", i, False, 1, None, None, None, fov_deg, range_,
+                               None, None) if i in self.outside
+                   else _scene_camera(i, self.model_pose(i), fov_deg, range_) for i in sorted(self.poses)]
         return TopDownScene(FRAME, cameras, np.zeros((0, 2)))
 
     def evidence(self) -> Evidence:

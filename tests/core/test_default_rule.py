@@ -237,6 +237,19 @@ def test_cameras_outside_the_largest_model_take_the_frustum_test_only():
     assert {result.reasons[p] for p in touching} == {("frustum",)}
 
 
+def test_a_placed_sub_models_cameras_are_judged_by_their_own_matches():
+    # The folded cameras 5-9 are a model of their own (no pose in the scene), read into the
+    # evidence as the join by their placements carries them. Their frusta overlap the left
+    # box's cameras', so the frustum test keeps every false pair; their matches do not.
+    capture, true_pairs, false_pairs = _twins(np.random.default_rng(1))
+    capture.outside = set(capture.cluster)
+    edits = capture.placement(capture.cluster, shift=0.3, turn_deg=-10.0)
+    result = prune_pairs(capture.scene(), edits, capture.pairs(), capture.evidence())
+    assert set(result.deleted) == false_pairs
+    assert all("frustum" not in result.reasons[p] for p in false_pairs)
+    assert true_pairs.isdisjoint(result.deleted)
+
+
 def _rotation_pair(rng, translation, planar: bool, noise: float = 1e-3) -> Capture:
     poses = {1: look_at((0.0, 0.0, EYE), (0.0, 5.0))}
     rotation, _ = look_at((0.0, 0.0, EYE), (np.sin(np.radians(25.0)) * 5, 5.0))

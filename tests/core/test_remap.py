@@ -4,7 +4,7 @@ import hashlib
 
 import pytest
 
-from guided_sfm.core import remap, sfm
+from guided_sfm.core import checked_round, remap, sfm
 from guided_sfm.core.errors import Cancelled, EmptyModel
 from guided_sfm.core.sfm import CancelToken, RunContext
 from guided_sfm.core.types import CameraEdit, EditSet
@@ -120,3 +120,20 @@ class _Registered:
 def test_untouched_cameras_are_held_fixed_when_few_are_touched_or_many_are_not(
         registered, touched, fixed):
     assert remap.holds_untouched_fixed(_Registered(registered), set(range(1, touched + 1))) is fixed
+
+
+def test_a_warm_start_leaves_out_an_untouched_camera_whose_pairs_are_all_gone(tiny_workspace,
+                                                                             tmp_path):
+    # The checked round's pass can delete every pair of a camera the round did not touch (a
+    # camera of a sub-model its placements joined): held in the warm start's model with no match
+    # left, it made pycolmap's mapper fail (unordered_map::at) and the round fell back to cold.
+    base = Workspace(tiny_workspace)
+    edits = _near_edit(base.scene())
+    new = Workspace(tmp_path / "next")
+    base.prune(edits, new)
+    moved = edits.cameras[0].image_id
+    lonely = next(c.image_id for c in base.scene().cameras if c.registered and c.image_id != moved)
+    checked_round._delete_in_place(new, [p for p in new.verified_pairs() if lonely in p])
+    report = new.map_again(TINY_RUN)
+    assert report.mode == "warm" and report.fallback is None
+    assert not new.scene().camera(lonely).registered

@@ -64,6 +64,7 @@ def test_a_leg_the_re_map_splits_off_joins_again_by_its_placements(
                   key=lambda m: -m.num_reg_images())
     warm_result, cold_result = (split, cold) if path == "warm" else (None, cold)
     monkeypatch.setattr(sfm, "map_database", fake_map(warm_result, cold_result))
+    monkeypatch.setattr(remap, "unmatched_images", lambda *args: set())  # no database
     out, report = remap.map_warm_or_cold(tmp_path / "db", tmp_path, tmp_path / "sparse", base,
                                          touched, keep_fixed=True, placements=everything,
                                          frame=scene.frame)
@@ -81,6 +82,7 @@ def test_without_placements_a_split_re_map_is_rejected_as_before(scene_and_model
     base, _ = join_placed(models, placements(scene.frame, OTHER), scene.frame)
     split = [_model(LARGEST), elsewhere(OTHER)]
     monkeypatch.setattr(sfm, "map_database", fake_map(split, split))
+    monkeypatch.setattr(remap, "unmatched_images", lambda *args: set())  # no database
     out, report = remap.map_warm_or_cold(tmp_path / "db", tmp_path, tmp_path / "sparse", base,
                                          {i for _, i, _, _ in OTHER}, keep_fixed=True)
     assert report.mode == "cold" and report.fallback is not None and len(out) == 2

@@ -3,7 +3,9 @@
 import numpy as np
 import pycolmap
 
-from guided_sfm.core import evaluation, metrics, model_files, simulated_user
+from guided_sfm.core import evaluation, geometry, metrics, model_files, sfm, simulated_user
+from guided_sfm.core.colmap_model import model_poses, to_sim3d
+from guided_sfm.core.join_groups import join_placed
 from guided_sfm.core.rule import evidence
 from guided_sfm.core.topdown import scene_extent
 from guided_sfm.core.truth import false_pairs, load_truth
@@ -100,3 +102,46 @@ def test_default_rule_on_tiny_each_evidence_test_has_its_case(tiny_workspace_ro,
     _, carried = one_camera(workspace, image_id, shift=0.3 * scene_extent(workspace.scene()))
     assert set(carried.deleted) == pairs and carried.removed_by_test["relative_pose"] == len(pairs)
     assert "frustum" not in carried.removed_by_test  # every pair has evidence: no fallback
+
+
+def split_off(workspace: Workspace, names: set[str]) -> None:
+    """Rewrite the workspace's model as two: the named images become a model of their own, in a
+    frame of its own (turned, scaled, shifted), as COLMAP starts a new model where it cannot go on."""
+    model = pycolmap.Reconstruction(workspace.model_dir())
+    largest, other = pycolmap.Reconstruction(model), pycolmap.Reconstruction(model)
+    for image_id in model.reg_image_ids():
+        image = model.image(image_id)
+        (other if image.name not in names else largest).deregister_frame(image.frame_id)
+    turn = geometry.rotations_about(np.array([0.3, 0.2, 1.0]), np.array([0.9]))[0]
+    other.transform(to_sim3d(metrics.Similarity(0.5, turn, np.array([4.0, -3.0, 1.0]))))
+    sfm.write_models([largest, other], workspace.sparse)
+    workspace.write_scene()
+
+
+def test_a_placed_sub_models_pairs_are_judged_by_its_own_matches(tiny_workspace, tiny_sample):
+    """The folded cameras as a model of their own, placed by the simulated user: the evidence
+    reads them from that model carried where the prune's join puts them, so their pairs meet the
+    match tests, not the frustum test alone (whose triangles along the corridor all overlap)."""
+    truth = load_truth(tiny_sample / "truth.json")
+    workspace = Workspace(tiny_workspace)
+    split_off(workspace, set(evaluation.camera_status(workspace, truth).wrong))
+    status = evaluation.camera_status(workspace, truth)
+    scene = workspace.scene()
+    outside = {c.image_id for c in scene.cameras if not c.registered}
+    assert len(outside) == 5 and len(workspace.load_models()) == 2
+    edits = EditSet(simulated_user.place_cameras(scene, truth, status.unregistered,
+                                                 status.truth_from_model, seed=1), rule="default")
+    pairs = workspace.verified_pairs()
+    gathered = workspace.rule_evidence(edits, pairs)
+    assert outside <= set(gathered.rows)
+    joined = model_poses(join_placed(workspace.load_models(), edits.cameras, scene.frame)[0][0])
+    for image_id in outside:  # where the prune's join puts them
+        row = gathered.rows[image_id]
+        np.testing.assert_allclose(gathered.rotations[row], joined[image_id].rotation, atol=1e-9)
+        np.testing.assert_allclose(gathered.translations[row], joined[image_id].translation,
+                                   atol=1e-9)
+    outcome = workspace.preview(edits)
+    false = {p for p in false_pairs(workspace.require(), truth) if set(p) & outside}
+    precision, recall, _ = metrics.pruning_scores(set(outcome.deleted), false)
+    assert false and precision >= 0.95 and recall >= 0.9
+    assert "frustum" not in outcome.removed_by_test

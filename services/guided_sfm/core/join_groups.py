@@ -10,11 +10,13 @@ them in a new model) are joined by those images instead, once, after a large col
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import pycolmap
 
 from guided_sfm.core import geometry, ground_plane, metrics
-from guided_sfm.core.colmap_model import model_poses, to_sim3d
+from guided_sfm.core.colmap_model import ModelPose, model_poses, to_sim3d
 from guided_sfm.core.group_pose import spacing
 from guided_sfm.core.types import CameraEdit, GroundFrame
 
@@ -25,12 +27,13 @@ MIN_PLACED_SHARE = 0.5
 MIN_SHARED_IMAGES = 3
 
 
-def placed_groups(models: list[pycolmap.Reconstruction], placements: list[CameraEdit]) -> list[int]:
-    """Indexes (>= 1) of the sub-models whose cameras the placements mostly place."""
+def placed_groups(models: list[Mapping[int, ModelPose]], placements: list[CameraEdit]) -> list[int]:
+    """Indexes (>= 1) of the sub-models (their poses, largest first) whose cameras the placements
+    mostly place."""
     placed = {c.image_id for c in placements}
     out = []
-    for index, model in enumerate(models[1:], start=1):
-        ids = set(model.reg_image_ids())
+    for index, poses in enumerate(models[1:], start=1):
+        ids = set(poses)
         if ids and len(ids & placed) >= MIN_PLACED_SHARE * len(ids):
             out.append(index)
     return out
@@ -54,13 +57,12 @@ def _horizontal(direction: np.ndarray, up: np.ndarray) -> np.ndarray:
     return flat / (np.linalg.norm(flat) or 1.0)
 
 
-def group_similarity(model: pycolmap.Reconstruction, placements: list[CameraEdit],
+def group_similarity(poses: Mapping[int, ModelPose], placements: list[CameraEdit],
                      frame: GroundFrame, up: np.ndarray, level: float, largest_spacing: float
                      ) -> metrics.Similarity | None:
-    """The similarity carrying the sub-model onto its placements: centres onto the placed
-    centres, headings onto the placed yaws, its cameras' mean up onto the largest model's
+    """The similarity carrying the sub-model (its poses) onto its placements: centres onto the
+    placed centres, headings onto the placed yaws, its cameras' mean up onto the largest model's
     cameras' mean up (up; level: their height along it)."""
-    poses = model_poses(model)
     edits = [c for c in placements if c.image_id in poses]
     if not edits:
         return None
@@ -102,22 +104,33 @@ def merge_into(largest: pycolmap.Reconstruction, other: pycolmap.Reconstruction)
     return len(added)
 
 
-def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEdit],
-                frame: GroundFrame) -> tuple[list[pycolmap.Reconstruction], set[int]]:
-    """(models with every placed sub-model merged into the largest, the image ids joined)."""
+def placed_similarities(models: list[Mapping[int, ModelPose]], placements: list[CameraEdit],
+                        frame: GroundFrame) -> dict[int, metrics.Similarity]:
+    """Per placed sub-model (index >= 1 into models: their poses, largest first), the similarity
+    carrying it into the largest model's world (group_similarity), as join_placed joins it; the
+    default rule reads a placed sub-model's evidence through it (rule.evidence.gather)."""
     groups = placed_groups(models, placements)
     if not groups:
-        return models, set()
-    largest = pycolmap.Reconstruction(models[0])
-    poses = sorted(model_poses(largest).values(), key=lambda p: p.name)
+        return {}
+    poses = sorted(models[0].values(), key=lambda p: p.name)
     centers = np.array([p.center for p in poses])
     up = ground_plane.mean_up([geometry.camera_up(p.rotation) for p in poses])
     level = float(np.median(centers @ up))
+    found = {index: group_similarity(models[index], placements, frame, up, level, spacing(centers))
+             for index in groups}
+    return {index: sim for index, sim in found.items() if sim is not None}
+
+
+def join_placed(models: list[pycolmap.Reconstruction], placements: list[CameraEdit],
+                frame: GroundFrame) -> tuple[list[pycolmap.Reconstruction], set[int]]:
+    """(models with every placed sub-model merged into the largest, the image ids joined)."""
+    poses = [model_poses(model) for model in models]
+    groups = placed_groups(poses, placements)
+    if not groups:
+        return models, set()
+    largest = pycolmap.Reconstruction(models[0])
     joined: set[int] = set()
-    for index in groups:
-        sim = group_similarity(models[index], placements, frame, up, level, spacing(centers))
-        if sim is None:
-            continue
+    for index, sim in placed_similarities(poses, placements, frame).items():
         other = pycolmap.Reconstruction(models[index])
         other.transform(to_sim3d(sim))
         merge_into(largest, other)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pycolmap
 
-from guided_sfm.core import join_groups, sfm
+from guided_sfm.core import colmap_db, join_groups, sfm
 from guided_sfm.core.errors import EmptyModel
 from guided_sfm.core.sfm import RunContext
 from guided_sfm.core.types import CameraEdit, GroundFrame
@@ -63,6 +63,14 @@ def without_images(model: pycolmap.Reconstruction, image_ids: set[int]) -> pycol
     return trimmed
 
 
+def unmatched_images(database: Path, model: pycolmap.Reconstruction) -> set[int]:
+    """The model's images with no verified pair left in the database. A check pass can delete
+    every pair of a camera the round did not touch (one a placement joined); held in a warm
+    start's model with no match, it makes pycolmap's mapper fail (unordered_map::at)."""
+    matched = {i for pair in colmap_db.verified_pairs(database) for i in pair}
+    return set(model.reg_image_ids()) - matched
+
+
 @dataclass(frozen=True)
 class Placed:
     """The round's placements and the frame they are in (the base's scene frame): a sub-model of
@@ -86,9 +94,10 @@ class Placed:
 
 
 def warm_result_problem(base: pycolmap.Reconstruction, models: list[pycolmap.Reconstruction],
-                        base_models: int) -> str | None:
-    """Why a warm result is worse than its base (fewer images, a split, large error), or None."""
-    if models[0].num_reg_images() < base.num_reg_images():
+                        base_models: int, unmatched: int = 0) -> str | None:
+    """Why a warm result is worse than its base (fewer images, a split, large error), or None;
+    unmatched: the base's images with no pair left, which no map can register."""
+    if models[0].num_reg_images() < base.num_reg_images() - unmatched:
         return f"{models[0].num_reg_images()} images registered, {base.num_reg_images()} before"
     if len(models) > base_models:
         return f"split into {len(models)} models, {base_models} before"
@@ -113,8 +122,9 @@ def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: li
     the touched images; (None, why) when it registered nothing."""
     base = base_models[0]
     fix = keep_fixed or holds_untouched_fixed(base, touched)
+    unmatched = unmatched_images(database, base) - touched
     with tempfile.TemporaryDirectory() as tmp:
-        without_images(base, touched).write_binary(tmp)
+        without_images(base, touched | unmatched).write_binary(tmp)
         try:
             warm = sfm.map_database(database, image_dir, sparse_dir, run, input_model=Path(tmp),
                                     fix_existing=fix)
@@ -124,7 +134,7 @@ def _map_warm(database: Path, image_dir: Path, sparse_dir: Path, base_models: li
             log.warning("The warm start failed (%s); mapping cold.", exc)
             return None, f"the warm start failed: {exc}"
     warm = placed.join(warm, base_models, touched, sparse_dir)
-    return warm, warm_result_problem(base, warm, len(base_models))
+    return warm, warm_result_problem(base, warm, len(base_models), len(unmatched))
 
 
 def map_warm_or_cold(database: Path, image_dir: Path, sparse_dir: Path, base_models: list,

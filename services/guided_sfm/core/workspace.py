@@ -24,6 +24,7 @@ from guided_sfm.core import (
     colmap_model,
     join_groups,
     match_graph,
+    metrics,
     pose_prior,
     remap,
     retrieval,
@@ -283,7 +284,22 @@ class Workspace:
         if edits.rule != DEFAULT_RULE or not edits.cameras or not self.model_dir().is_dir():
             return None
         needed = separates.partners_of_moved(pairs, {c.image_id for c in edits.cameras})
-        return evidence.gather(self.require(), self.model_dir(), needed)
+        return evidence.gather(self.require(), self.model_dir(), needed,
+                               self.placed_sub_models(edits))
+
+    def placed_sub_models(self, edits: EditSet) -> list[tuple[Path, metrics.Similarity]]:
+        """The sub-models the edit set's placements join (join_placed_groups), each with the
+        similarity carrying it into the largest model's world, largest first."""
+        largest = self.model_dir()
+        others = [d for d in self.sparse.iterdir() if d.name.isdigit() and d != largest]
+        in_largest = evidence.model_parts(largest).poses
+        if not others or all(c.image_id in in_largest for c in edits.cameras):
+            return []  # (a sub-model is read only when the edit set places one of its cameras)
+        parts = {d: evidence.model_parts(d).poses for d in others}
+        others.sort(key=lambda d: (-len(parts[d]), int(d.name)))
+        found = join_groups.placed_similarities([in_largest, *(parts[d] for d in others)],
+                                                edits.cameras, self.scene().frame)
+        return [(others[index - 1], sim) for index, sim in sorted(found.items())]
 
     def prune(self, edits: EditSet, new: Workspace) -> PruneOutcome:
         """Write the new workspace: the pruned database, a copy of the base models, the edits

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import copy
 import functools
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -16,6 +16,7 @@ import pycolmap
 
 from guided_sfm.core import colmap_db, model_files
 from guided_sfm.core.colmap_model import ModelPose, model_poses
+from guided_sfm.core.metrics import Similarity
 from guided_sfm.core.types import PairKey
 
 # A median angle or a 9x9 moment matrix settles long before a pair's hundreds of matches run out;
@@ -101,7 +102,7 @@ class ModelParts(NamedTuple):
     points: tuple[np.ndarray, np.ndarray]  # read_points' sorted ids and xyz
 
 
-@functools.lru_cache(maxsize=2)
+@functools.lru_cache(maxsize=4)
 def _model_parts(model_dir: str, _stamp: tuple[int, ...]) -> ModelParts:
     model = pycolmap.Reconstruction(model_dir)
     poses = model_poses(model)
@@ -112,7 +113,8 @@ def _model_parts(model_dir: str, _stamp: tuple[int, ...]) -> ModelParts:
 
 
 def model_parts(model_dir: Path) -> ModelParts:
-    """The model's parts, kept for the last two models read: a version's model never changes and
+    """The model's parts, kept for the last four models read (a split version's largest model and
+    the sub-models its placements join, or two versions): a version's model never changes and
     its previews repeat as the user edits (at 1,000 cameras loading them is most of a preview).
     Keyed by the files' size and time as well, so a model written again is read again."""
     files = [Path(model_dir) / name for name in ("cameras.bin", "images.bin", "points3D.bin")]
@@ -120,23 +122,36 @@ def model_parts(model_dir: Path) -> ModelParts:
     return _model_parts(str(Path(model_dir).resolve()), stamp)
 
 
-def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey]) -> Evidence:
+def gather(database: Path, model_dir: Path, pairs: Iterable[PairKey],
+           joined: Sequence[tuple[Path, Similarity]] = ()) -> Evidence:
     """Evidence for these pairs from the largest model at model_dir and the matching database:
-    the model's parts (cached), and only the tested images' keypoints and the tested pairs' matches."""
+    the model's parts (cached), and only the tested images' keypoints and the tested pairs' matches.
+
+    joined: placed sub-models (folder, the similarity carrying it into the largest model's world,
+    join_groups.placed_similarities), read for the images the largest does not hold, their poses
+    and points carried as the prune's join carries them: a sub-model's own matches then judge
+    its placed cameras, not the frustum test alone.
+    """
     pairs = list(pairs)
-    parts = model_parts(model_dir)
     wanted = {i for pair in pairs for i in pair}
-    poses = {i: pose for i, pose in parts.poses.items() if i in wanted}
-    image_ids = sorted(poses)
-    observations = model_files.read_observations(model_dir, image_ids)
-    point_ids, xyz = parts.points
-    rotations, translations, rays, points = [], [], [], []
-    for image_id in image_ids:
-        xy, observed = observations[image_id]
-        rotations.append(poses[image_id].rotation)
-        translations.append(poses[image_id].translation)
-        rays.append(_rays(parts.cameras[image_id], xy))
-        points.append(model_files.points_of(observed, point_ids, xyz))
+    carried: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+    for directory, sim in [(model_dir, None), *joined]:
+        parts = model_parts(directory)
+        ids = sorted(i for i in parts.poses if i in wanted and i not in carried)
+        observations = model_files.read_observations(directory, ids)
+        point_ids, xyz = parts.points
+        for image_id in ids:
+            xy, observed = observations[image_id]
+            pose = parts.poses[image_id]
+            rotation, translation = pose.rotation, pose.translation
+            points = model_files.points_of(observed, point_ids, xyz)
+            if sim is not None:  # cam_from_largest = cam_from_own . own_from_largest
+                rotation = sim.apply_rotation(rotation)
+                translation = sim.scale * pose.translation - rotation @ sim.translation
+                points = sim.apply(points)
+            carried[image_id] = (rotation, translation, _rays(parts.cameras[image_id], xy), points)
+    image_ids = sorted(carried)
+    rotations, translations, rays, points = ([carried[i][k] for i in image_ids] for k in range(4))
     counts = [len(r) for r in rays]
     held = dict(zip(image_ids, counts, strict=True))
     return Evidence(

@@ -10,7 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from guided_sfm.core.geometry import camera_centers, rotation_from_qvec, rotations_about
+from guided_sfm.core.geometry import (
+    camera_centers,
+    rotation_from_qvec,
+    rotations_about,
+    viewing_direction,
+    yaw_in_frame,
+)
 from guided_sfm.core.rule.evidence import Evidence
 from guided_sfm.core.types import CameraEdit, GroundFrame, SceneCamera, TopDownScene
 
@@ -84,17 +90,17 @@ def motions_of(scene: TopDownScene, placements: Mapping[int, CameraEdit],
     count, up = len(evidence.rows), gravity(scene)
     motion_rotations, motion_translations = np.tile(np.eye(3), (count, 1, 1)), np.zeros((count, 3))
     cameras = {c.image_id: c for c in scene.cameras}
-    rows, yaws, after = [], [], []
+    rows, after = [], []
     for image_id, row in evidence.rows.items():
-        placement, camera = placements.get(image_id), cameras.get(image_id)
-        if placement is not None and camera is not None and camera.yaw_deg is not None:
+        placement = placements.get(image_id)
+        if placement is not None and image_id in cameras:
             rows.append(row)
-            yaws.append(camera.yaw_deg)
             after.append((placement.x, placement.y, placement.yaw_deg))
     if rows:
         centers = camera_centers(evidence.rotations[rows], evidence.translations[rows])
         motion_rotations[rows], motion_translations[rows] = ground_motions(
-            scene.frame, up, centers, np.array(yaws), np.array(after))
+            scene.frame, up, centers, _model_yaws(scene.frame, cameras, evidence, rows),
+            np.array(after))
     # cam_from_placed = cam_from_model . model_from_placed
     rotations = evidence.rotations @ motion_rotations.transpose(0, 2, 1)
     translations = evidence.translations - np.einsum("nij,nj->ni", rotations, motion_translations)
@@ -102,6 +108,17 @@ def motions_of(scene: TopDownScene, placements: Mapping[int, CameraEdit],
     moved[rows] = True
     return Motions(motion_rotations, motion_translations, rotations, translations, moved, up,
                    _ranges(cameras, evidence))
+
+
+def _model_yaws(frame: GroundFrame, cameras: Mapping[int, SceneCamera], evidence: Evidence,
+                rows: list[int]) -> np.ndarray:
+    """Each row's yaw (deg, frame) at its evidence pose: the scene's for an image of the largest
+    model, from the evidence rotation for one a placed sub-model lends (rule.evidence.gather
+    carries it into the largest model's world; the scene has no pose for it)."""
+    image_of = {row: image_id for image_id, row in evidence.rows.items()}
+    yaws = [cameras[image_of[row]].yaw_deg for row in rows]
+    return np.array([float(yaw_in_frame(viewing_direction(evidence.rotations[row]), frame))
+                     if yaw is None else yaw for row, yaw in zip(rows, yaws, strict=True)])
 
 
 def _ranges(cameras: Mapping[int, SceneCamera], evidence: Evidence) -> np.ndarray:
